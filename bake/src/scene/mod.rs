@@ -1,0 +1,142 @@
+//! The in-memory scene every part of the baker works on: world-space triangles grouped by
+//! material ("objects" in the thesis' sense: one editable BRDF per material), lights, camera,
+//! environment. Produced by [`load`] from a glTF file plus the bake config.
+//!
+//! Conventions (see docs/conventions.md): right-handed, +Y up, metres; linear RGB radiance;
+//! glTF punctual light intensities are taken as radiometric (1 cd == 1 W/sr per channel unit).
+
+use glam::{Vec2, Vec3};
+
+use crate::brdf::BrdfParams;
+
+pub mod load;
+pub use load::load;
+
+/// A linear-RGB texture (sRGB-encoded glTF base-colour/emissive textures are decoded on load).
+#[derive(Clone, Debug)]
+pub struct Texture {
+    pub name: String,
+    pub width: u32,
+    pub height: u32,
+    /// Row-major, top row first (glTF UV (0,0) is the top-left corner).
+    pub texels: Vec<Vec3>,
+}
+
+impl Texture {
+    /// Bilinear lookup with repeat wrapping.
+    pub fn sample(&self, uv: Vec2) -> Vec3 {
+        let w = self.width as usize;
+        let h = self.height as usize;
+        if w == 0 || h == 0 || !uv.is_finite() {
+            return Vec3::ONE;
+        }
+        let x = uv.x * self.width as f32 - 0.5;
+        let y = uv.y * self.height as f32 - 0.5;
+        let x0 = x.floor();
+        let y0 = y.floor();
+        let fx = x - x0;
+        let fy = y - y0;
+        let wrap = |v: f32, n: usize| (v as i64).rem_euclid(n as i64) as usize;
+        let (xa, xb) = (wrap(x0, w), wrap(x0 + 1.0, w));
+        let (ya, yb) = (wrap(y0, h), wrap(y0 + 1.0, h));
+        let t = |xx: usize, yy: usize| self.texels[yy * w + xx];
+        t(xa, ya) * (1.0 - fx) * (1.0 - fy)
+            + t(xb, ya) * fx * (1.0 - fy)
+            + t(xa, yb) * (1.0 - fx) * fy
+            + t(xb, yb) * fx * fy
+    }
+}
+
+/// One material of the scene. Its index is the "object" index R of the transfer tensors.
+#[derive(Clone, Debug)]
+pub struct Material {
+    /// The glTF material name (unnamed materials get `material<index>`).
+    pub name: String,
+    /// The BRDF the scene is rendered with (config overrides, else mapped from glTF PBR).
+    pub brdf: BrdfParams,
+    /// Index into [`Scene::textures`]; modulates the diffuse term (Kd) only.
+    pub base_color_texture: Option<usize>,
+    /// Emitted radiance (emissiveFactor x KHR_materials_emissive_strength), linear RGB.
+    pub emission: Vec3,
+    /// Index into [`Scene::textures`]; modulates `emission`.
+    pub emissive_texture: Option<usize>,
+    /// Editable in the bake (from the config).
+    pub editable: bool,
+}
+
+impl Material {
+    pub fn is_emissive(&self) -> bool {
+        self.emission.max_element() > 0.0
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PunctualLight {
+    /// Radiant intensity (W/sr per channel) at `position`.
+    Point { position: Vec3, intensity: Vec3 },
+    /// Like a point light, restricted to a cone about `direction` (unit, the way light travels),
+    /// with glTF's smooth falloff between the inner and outer cone angles (radians).
+    Spot {
+        position: Vec3,
+        direction: Vec3,
+        intensity: Vec3,
+        inner_cone: f32,
+        outer_cone: f32,
+    },
+    /// Irradiance (W/m^2 per channel) on a surface facing the light; `direction` is unit, the
+    /// way light travels.
+    Directional { direction: Vec3, irradiance: Vec3 },
+}
+
+/// A pinhole perspective camera.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    pub position: Vec3,
+    /// Unit vectors of the camera frame in world space (glTF cameras look down their local -Z).
+    pub forward: Vec3,
+    pub up: Vec3,
+    pub right: Vec3,
+    /// Vertical field of view, radians.
+    pub yfov: f32,
+}
+
+/// Distant lighting reaching every point not occluded in a direction.
+#[derive(Clone, Debug)]
+pub enum Environment {
+    /// Constant radiance from every direction (black = no environment).
+    Constant(Vec3),
+    /// Equirectangular (lat-long) radiance map, already multiplied by the config's intensity.
+    /// Row 0 is +Y (up); column u in [0,1) maps to phi = 2*pi*(u - 0.5) with direction
+    /// (sin(theta) sin(phi), cos(theta), -sin(theta) cos(phi)), theta = pi * v.
+    LatLong {
+        width: u32,
+        height: u32,
+        texels: Vec<Vec3>,
+    },
+}
+
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// World-space vertex positions, normals (unit) and UVs, one entry per vertex.
+    pub positions: Vec<Vec3>,
+    pub normals: Vec<Vec3>,
+    pub uvs: Vec<Vec2>,
+    /// Indexed triangles into the vertex arrays; every triangle here is valid (finite,
+    /// non-degenerate).
+    pub triangles: Vec<[u32; 3]>,
+    /// Material (object) index per triangle.
+    pub triangle_material: Vec<u32>,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+    pub lights: Vec<PunctualLight>,
+    pub camera: Camera,
+    pub environment: Environment,
+    /// Triangles dropped on load because they were degenerate or non-finite.
+    pub skipped_triangles: usize,
+}
+
+impl Scene {
+    pub fn material_index(&self, name: &str) -> Option<usize> {
+        self.materials.iter().position(|m| m.name == name)
+    }
+}

@@ -1,0 +1,1 @@
+//! Bake file container and shared schemas.

@@ -1,0 +1,1 @@
+//! Cross-crate regression tests live in `tests/tests/`.
