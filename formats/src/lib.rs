@@ -1,1 +1,2 @@
 //! Bake file container and shared schemas.
+pub mod basis;
