@@ -1,0 +1,383 @@
+//! The path integrator shared by the reference tracer and the bakers.
+//!
+//! A path from the camera reflects at vertices x_0 .. x_k and ends on a light. Its contribution
+//! factors into (a) a *weight* that depends only on geometry, lights, sampling densities and
+//! MIS, and (b) one *slot vector* per vertex: the values of the BRDF functions that a material
+//! is expressed in (one slot holding the true BRDF for a fixed material; one slot per basis
+//! BRDF for an editable one). A [`MaterialModel`] says how vertices are evaluated and sampled,
+//! and a [`PathSink`] decides what to do with each finished path: the reference tracer
+//! contracts the slots with coefficients into a colour, the baker accumulates their products
+//! into transfer tensors. Because the sampling never depends on the coefficients, both see the
+//! very same paths from the same random streams: relighting with coefficients c equals the
+//! reference render with the projected BRDFs, to float rounding (DESIGN.md section 2.1).
+//!
+//! Random numbers are drawn in a fixed order per vertex whatever happens (2 for the camera
+//! jitter; per vertex 3 for the area light, 2 for the environment, 3 for the continuation), so
+//! the streams of two runs stay aligned.
+
+use glam::{Vec2, Vec3};
+
+use crate::accel::{Accel, Hit};
+use crate::brdf::BrdfSample;
+use crate::lights::{LightSet, orthonormal_basis};
+use crate::sampling::Rng;
+use crate::scene::Scene;
+
+/// Most slots a material may have at one vertex.
+pub const MAX_SLOTS: usize = 16;
+/// Most reflections along a path.
+pub const MAX_REFLECTIONS: usize = 4;
+
+/// A shading point: hit position, normals facing the side the ray came from, frame, UV.
+#[derive(Clone, Copy, Debug)]
+pub struct Surface {
+    pub p: Vec3,
+    /// Geometric normal, on the side of the incoming ray.
+    pub ng: Vec3,
+    /// Shading normal (interpolated), on the same side as `ng`.
+    pub ns: Vec3,
+    pub tangent: Vec3,
+    pub bitangent: Vec3,
+    pub uv: Vec2,
+    pub material: u32,
+    pub triangle: u32,
+    pub bary: Vec2,
+}
+
+impl Surface {
+    #[inline]
+    pub fn to_local(&self, v: Vec3) -> Vec3 {
+        Vec3::new(v.dot(self.tangent), v.dot(self.bitangent), v.dot(self.ns))
+    }
+
+    #[inline]
+    pub fn to_world(&self, v: Vec3) -> Vec3 {
+        self.tangent * v.x + self.bitangent * v.y + self.ns * v.z
+    }
+}
+
+/// The BRDF function values of one vertex, one per slot of its material (RGB).
+#[derive(Clone, Copy, Debug)]
+pub struct Slots {
+    pub material: u32,
+    pub len: usize,
+    pub values: [Vec3; MAX_SLOTS],
+}
+
+impl Slots {
+    pub const EMPTY: Slots = Slots {
+        material: 0,
+        len: 0,
+        values: [Vec3::ZERO; MAX_SLOTS],
+    };
+
+    pub fn as_slice(&self) -> &[Vec3] {
+        &self.values[..self.len]
+    }
+}
+
+/// How vertices are evaluated and sampled. Directions are local (normal = +Z).
+pub trait MaterialModel: Sync {
+    /// Fills `out` with the slot values of the vertex for directions (wo, wi). `depth` is the
+    /// vertex index along the path (0 = the point the camera sees).
+    fn eval(&self, surface: &Surface, depth: usize, wo: Vec3, wi: Vec3, out: &mut Slots);
+    /// Samples a continuation direction. Must draw exactly 3 numbers from `rng`.
+    fn sample(&self, surface: &Surface, wo: Vec3, rng: &mut Rng) -> Option<BrdfSample>;
+    /// The density of `sample`.
+    fn pdf(&self, surface: &Surface, wo: Vec3, wi: Vec3) -> f32;
+}
+
+/// Receives what one camera sample contributes.
+pub trait PathSink {
+    /// Radiance reaching the camera without any reflection (an emitter or the environment).
+    fn camera_emission(&mut self, radiance: Vec3);
+    /// The surface the camera sample sees (for coverage and per-pixel data).
+    fn first_hit(&mut self, surface: &Surface);
+    /// A path with `prefix.len() + 1` reflections: the vertices' slot values along it, and
+    /// the weight every product of slot values is multiplied by.
+    fn path(&mut self, prefix: &[Slots], last: &Slots, weight: Vec3);
+}
+
+/// Power heuristic (beta = 2) for two strategies.
+#[inline]
+fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
+    let a = pdf_a * pdf_a;
+    let b = pdf_b * pdf_b;
+    if a + b <= 0.0 || !(a + b).is_finite() {
+        // Either density overflowed (a near-delta lobe): trust the larger one.
+        return if pdf_a >= pdf_b { 1.0 } else { 0.0 };
+    }
+    a / (a + b)
+}
+
+/// Camera, geometry, lights and the reflection count: everything a path needs.
+pub struct Integrator<'a> {
+    pub scene: &'a Scene,
+    pub accel: &'a Accel,
+    pub lights: &'a LightSet,
+    pub reflections: usize,
+    pub width: u32,
+    pub height: u32,
+    /// Ray origin offset, scaled to the scene.
+    eps: f32,
+    tan_half_fov: f32,
+    aspect: f32,
+}
+
+impl<'a> Integrator<'a> {
+    pub fn new(
+        scene: &'a Scene,
+        accel: &'a Accel,
+        lights: &'a LightSet,
+        reflections: usize,
+        width: u32,
+        height: u32,
+    ) -> Self {
+        let extent = scene
+            .positions
+            .iter()
+            .fold(0.0f32, |m, p| m.max(p.abs().max_element()));
+        Integrator {
+            scene,
+            accel,
+            lights,
+            reflections: reflections.clamp(1, MAX_REFLECTIONS),
+            width,
+            height,
+            eps: 1e-4 * extent.max(1e-3),
+            tan_half_fov: (scene.camera.yfov * 0.5).tan(),
+            aspect: width as f32 / height.max(1) as f32,
+        }
+    }
+
+    /// Primary ray direction through film position (x, y) in pixels (y down).
+    #[inline]
+    pub fn camera_ray(&self, x: f32, y: f32) -> (Vec3, Vec3) {
+        let cam = &self.scene.camera;
+        let sx = (2.0 * x / self.width as f32 - 1.0) * self.tan_half_fov * self.aspect;
+        let sy = (1.0 - 2.0 * y / self.height as f32) * self.tan_half_fov;
+        let dir = (cam.forward + cam.right * sx + cam.up * sy).normalize();
+        (cam.position, dir)
+    }
+
+    /// The shading point of a hit by a ray travelling along `dir`.
+    pub fn surface(&self, hit: &Hit, dir: Vec3) -> Surface {
+        let scene = self.scene;
+        let tri = scene.triangles[hit.triangle as usize];
+        let [a, b, c] = tri.map(|v| scene.positions[v as usize]);
+        let (u, v) = (hit.bary.x, hit.bary.y);
+        let w = 1.0 - u - v;
+        let p = a * w + b * u + c * v;
+        let mut ng = (b - a).cross(c - a).normalize_or_zero();
+        let [na, nb, nc] = tri.map(|i| scene.normals[i as usize]);
+        let mut ns = (na * w + nb * u + nc * v).normalize_or_zero();
+        if ns == Vec3::ZERO {
+            ns = ng;
+        }
+        // Two-sided surfaces: face the normals towards the incoming ray.
+        if ng.dot(dir) > 0.0 {
+            ng = -ng;
+        }
+        if ns.dot(ng) < 0.0 {
+            ns = -ns;
+        }
+        let [ua, ub, uc] = tri.map(|i| scene.uvs[i as usize]);
+        let uv = ua * w + ub * u + uc * v;
+        let (tangent, bitangent) = orthonormal_basis(ns);
+        Surface {
+            p,
+            ng,
+            ns,
+            tangent,
+            bitangent,
+            uv,
+            material: scene.triangle_material[hit.triangle as usize],
+            triangle: hit.triangle,
+            bary: hit.bary,
+        }
+    }
+
+    /// Emitted radiance of a surface point (zero for non-emissive materials).
+    #[inline]
+    fn emission(&self, s: &Surface) -> Vec3 {
+        let m = &self.scene.materials[s.material as usize];
+        if !m.is_emissive() {
+            return Vec3::ZERO;
+        }
+        let tex = m
+            .emissive_texture
+            .and_then(|t| self.scene.textures.get(t))
+            .map_or(Vec3::ONE, |t| t.sample(s.uv));
+        m.emission * tex
+    }
+
+    /// Emitted radiance leaving surface `s` towards the ray that arrived along `dir`.
+    #[inline]
+    fn emission_towards(&self, s: &Surface, dir: Vec3) -> Vec3 {
+        let le = self.emission(s);
+        if le == Vec3::ZERO {
+            return le;
+        }
+        let tri = self.scene.triangles[s.triangle as usize];
+        let [a, b, c] = tri.map(|v| self.scene.positions[v as usize]);
+        let ng = (b - a).cross(c - a).normalize_or_zero();
+        if self
+            .lights
+            .emits_towards(self.scene, s.triangle, ng, s.bary, dir)
+        {
+            le
+        } else {
+            Vec3::ZERO
+        }
+    }
+
+    /// Traces one camera sample of pixel (px, py). Returns the number of rays cast.
+    pub fn trace_sample<M: MaterialModel, S: PathSink>(
+        &self,
+        model: &M,
+        sink: &mut S,
+        px: u32,
+        py: u32,
+        rng: &mut Rng,
+    ) -> u32 {
+        let jitter = rng.next_vec2();
+        let (origin, dir) = self.camera_ray(px as f32 + jitter.x, py as f32 + jitter.y);
+        let mut rays = 1u32;
+        let Some(hit) = self.accel.intersect(origin, dir, 0.0, f32::INFINITY) else {
+            sink.camera_emission(self.lights.environment_radiance(dir));
+            return rays;
+        };
+        let mut surf = self.surface(&hit, dir);
+        let le = self.emission_towards(&surf, dir);
+        if le != Vec3::ZERO {
+            sink.camera_emission(le);
+        }
+        sink.first_hit(&surf);
+
+        let mut prefix = [Slots::EMPTY; MAX_REFLECTIONS];
+        let mut weight = Vec3::ONE;
+        let mut dir = dir;
+        let mut slots = Slots::EMPTY;
+        for depth in 0..self.reflections {
+            let wo_world = -dir;
+            let wo = surf.to_local(wo_world);
+            let origin = surf.p + surf.ng * self.eps;
+            let u_pick = rng.next_f32();
+            let u_area = rng.next_vec2();
+            let u_env = rng.next_vec2();
+            if wo.z <= 0.0 {
+                // Seen from below its shading hemisphere (shading-normal artefact): black.
+                break;
+            }
+
+            // Next-event estimation: area lights.
+            if let Some((ls, tri, bary)) = self
+                .lights
+                .sample_area(self.scene, surf.p, u_pick, u_area)
+            {
+                let wi = surf.to_local(ls.wi);
+                if wi.z > 0.0 && ls.wi.dot(surf.ng) > 0.0 {
+                    let light_hit = Hit {
+                        t: ls.distance,
+                        triangle: tri,
+                        bary,
+                    };
+                    let light_surf = self.surface(&light_hit, ls.wi);
+                    let le = self.emission(&light_surf);
+                    rays += 1;
+                    if le != Vec3::ZERO
+                        && !self.accel.occluded(
+                            origin,
+                            ls.wi,
+                            0.0,
+                            ls.distance * (1.0 - 1e-4) - self.eps,
+                        )
+                    {
+                        let pdf_b = model.pdf(&surf, wo, wi);
+                        let mis = power_heuristic(ls.pdf, pdf_b);
+                        model.eval(&surf, depth, wo, wi, &mut slots);
+                        sink.path(
+                            &prefix[..depth],
+                            &slots,
+                            weight * le * ls.value * (wi.z * mis),
+                        );
+                    }
+                }
+            }
+            // Punctual lights: no MIS (delta distributions).
+            for i in 0..self.lights.punctual.len() {
+                let Some(ls) = self.lights.sample_punctual(i, surf.p) else {
+                    continue;
+                };
+                let wi = surf.to_local(ls.wi);
+                if wi.z <= 0.0 || ls.wi.dot(surf.ng) <= 0.0 {
+                    continue;
+                }
+                rays += 1;
+                let tmax = if ls.distance.is_finite() {
+                    ls.distance * (1.0 - 1e-4) - self.eps
+                } else {
+                    f32::INFINITY
+                };
+                if self.accel.occluded(origin, ls.wi, 0.0, tmax) {
+                    continue;
+                }
+                model.eval(&surf, depth, wo, wi, &mut slots);
+                sink.path(&prefix[..depth], &slots, weight * ls.value * wi.z);
+            }
+            // Environment.
+            if let Some(ls) = self.lights.sample_environment(surf.ns, u_env) {
+                let wi = surf.to_local(ls.wi);
+                if wi.z > 0.0 && ls.wi.dot(surf.ng) > 0.0 {
+                    rays += 1;
+                    if !self.accel.occluded(origin, ls.wi, 0.0, f32::INFINITY) {
+                        let pdf_b = model.pdf(&surf, wo, wi);
+                        let mis = power_heuristic(ls.pdf, pdf_b);
+                        model.eval(&surf, depth, wo, wi, &mut slots);
+                        sink.path(&prefix[..depth], &slots, weight * ls.value * (wi.z * mis));
+                    }
+                }
+            }
+
+            // Continuation by sampling the model's density (also finds emitters by chance).
+            let Some(bs) = model.sample(&surf, wo, rng) else {
+                break;
+            };
+            let wi_world = surf.to_world(bs.wi).normalize();
+            if bs.wi.z <= 0.0 || wi_world.dot(surf.ng) <= 0.0 || !(bs.pdf > 0.0) {
+                break;
+            }
+            model.eval(&surf, depth, wo, bs.wi, &mut slots);
+            let step = weight * (bs.wi.z / bs.pdf);
+            if !step.is_finite() {
+                break;
+            }
+            rays += 1;
+            let Some(next_hit) = self.accel.intersect(origin, wi_world, 0.0, f32::INFINITY) else {
+                let le = self.lights.environment_radiance(wi_world);
+                if le != Vec3::ZERO {
+                    let pdf_l = self.lights.environment_pdf(surf.ns, wi_world);
+                    let mis = power_heuristic(bs.pdf, pdf_l);
+                    sink.path(&prefix[..depth], &slots, step * le * mis);
+                }
+                break;
+            };
+            let next = self.surface(&next_hit, wi_world);
+            let le = self.emission_towards(&next, wi_world);
+            if le != Vec3::ZERO {
+                let cos_l = next.ng.dot(-wi_world).abs();
+                let pdf_l = self.lights.area_pdf(next.triangle, next_hit.t, cos_l);
+                let mis = power_heuristic(bs.pdf, pdf_l);
+                sink.path(&prefix[..depth], &slots, step * le * mis);
+            }
+            if depth + 1 >= self.reflections {
+                break;
+            }
+            prefix[depth] = slots;
+            weight = step;
+            surf = next;
+            dir = wi_world;
+        }
+        rays
+    }
+}

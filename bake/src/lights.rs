@@ -1,0 +1,392 @@
+//! Light sources and their sampling for next-event estimation: emissive triangles (area
+//! lights), punctual lights (point, spot, directional) and the environment.
+//!
+//! Each kind is sampled on its own at every shading point (one area-light sample, every
+//! punctual light, one environment sample), so no selection probability between kinds is
+//! needed and the densities used for multiple importance sampling are simple.
+
+use glam::{Vec2, Vec3};
+use std::f32::consts::PI;
+
+use crate::sampling::{Distribution1D, uniform_triangle};
+use crate::scene::{Environment, PunctualLight, Scene};
+
+/// Relative luminance of linear sRGB primaries.
+#[inline]
+pub fn luminance(c: Vec3) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+/// A sample of incident light at a point, for next-event estimation.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// Unit direction from the shading point towards the light.
+    pub wi: Vec3,
+    /// Distance to the light point (f32::INFINITY for directional/environment).
+    pub distance: f32,
+    /// Incident radiance divided by the solid-angle density (or the delta light's
+    /// irradiance-equivalent): the estimator's light factor before BRDF x cosine.
+    pub value: Vec3,
+    /// Solid-angle density of the sample, for MIS; 0 for delta lights (no MIS).
+    pub pdf: f32,
+}
+
+struct EmissiveTriangle {
+    triangle: u32,
+    area: f32,
+}
+
+/// Importance sampling of a lat-long map: rows by marginal, columns by conditional.
+struct EnvMapSampler {
+    width: usize,
+    height: usize,
+    rows: Distribution1D,
+    columns: Vec<Option<Distribution1D>>,
+}
+
+pub struct LightSet {
+    emissive: Vec<EmissiveTriangle>,
+    emissive_pick: Option<Distribution1D>,
+    /// For each scene triangle, its index into `emissive` (u32::MAX when not emissive).
+    emissive_index: Vec<u32>,
+    pub punctual: Vec<PunctualLight>,
+    environment: Environment,
+    env_sampler: Option<EnvMapSampler>,
+}
+
+impl LightSet {
+    pub fn new(scene: &Scene) -> LightSet {
+        let mut emissive = Vec::new();
+        let mut weights = Vec::new();
+        let mut emissive_index = vec![u32::MAX; scene.triangles.len()];
+        for (i, tri) in scene.triangles.iter().enumerate() {
+            let m = &scene.materials[scene.triangle_material[i] as usize];
+            if !m.is_emissive() {
+                continue;
+            }
+            let [a, b, c] = tri.map(|v| scene.positions[v as usize]);
+            let area = 0.5 * (b - a).cross(c - a).length();
+            if !(area > 0.0 && area.is_finite()) {
+                continue;
+            }
+            emissive_index[i] = emissive.len() as u32;
+            emissive.push(EmissiveTriangle {
+                triangle: i as u32,
+                area,
+            });
+            weights.push(luminance(m.emission).max(1e-6) * area);
+        }
+        let emissive_pick = Distribution1D::new(&weights);
+        let env_sampler = match &scene.environment {
+            Environment::LatLong {
+                width,
+                height,
+                texels,
+            } => EnvMapSampler::new(*width as usize, *height as usize, texels),
+            Environment::Constant(_) => None,
+        };
+        LightSet {
+            emissive,
+            emissive_pick,
+            emissive_index,
+            punctual: scene.lights.clone(),
+            environment: scene.environment.clone(),
+            env_sampler,
+        }
+    }
+
+    pub fn has_area_lights(&self) -> bool {
+        self.emissive_pick.is_some()
+    }
+
+    pub fn has_environment(&self) -> bool {
+        match &self.environment {
+            Environment::Constant(c) => c.max_element() > 0.0,
+            Environment::LatLong { .. } => self.env_sampler.is_some(),
+        }
+    }
+
+    /// Samples a point on an emissive triangle as seen from `p`. `Le` is the radiance the
+    /// caller evaluates at the hit (it needs the UV for emissive textures); here `value` holds
+    /// 1/pdf so the caller multiplies by Le. Returns the chosen triangle and its barycentrics.
+    pub fn sample_area(
+        &self,
+        scene: &Scene,
+        p: Vec3,
+        u_pick: f32,
+        u: Vec2,
+    ) -> Option<(LightSample, u32, Vec2)> {
+        let pick = self.emissive_pick.as_ref()?;
+        let (i, _) = pick.sample(u_pick);
+        let em = &self.emissive[i];
+        let tri = scene.triangles[em.triangle as usize];
+        let [a, b, c] = tri.map(|v| scene.positions[v as usize]);
+        let bary = uniform_triangle(u);
+        let q = a + (b - a) * bary.x + (c - a) * bary.y;
+        let to = q - p;
+        let d2 = to.length_squared();
+        if !(d2 > 0.0 && d2.is_finite()) {
+            return None;
+        }
+        let dist = d2.sqrt();
+        let wi = to / dist;
+        let ng = (b - a).cross(c - a).normalize();
+        let ns = self.emitting_normal(scene, em.triangle, ng, bary);
+        let cos_l = -wi.dot(ns);
+        if cos_l <= 0.0 {
+            return None;
+        }
+        let pdf = pick.pmf(i) / em.area * d2 / cos_l;
+        if !(pdf > 0.0 && pdf.is_finite()) {
+            return None;
+        }
+        Some((
+            LightSample {
+                wi,
+                distance: dist,
+                value: Vec3::splat(1.0 / pdf),
+                pdf,
+            },
+            em.triangle,
+            bary,
+        ))
+    }
+
+    /// The side an emissive triangle emits from: its geometric normal, flipped to agree with
+    /// the interpolated vertex normals (robust to meshes with inconsistent winding).
+    fn emitting_normal(&self, scene: &Scene, triangle: u32, ng: Vec3, bary: Vec2) -> Vec3 {
+        let tri = scene.triangles[triangle as usize];
+        let [na, nb, nc] = tri.map(|v| scene.normals[v as usize]);
+        let ns = na * (1.0 - bary.x - bary.y) + nb * bary.x + nc * bary.y;
+        if ns.dot(ng) < 0.0 { -ng } else { ng }
+    }
+
+    /// True when a ray arriving along `dir` at the given point of an emissive triangle sees
+    /// its emitting side.
+    pub fn emits_towards(&self, scene: &Scene, triangle: u32, ng: Vec3, bary: Vec2, dir: Vec3) -> bool {
+        self.emitting_normal(scene, triangle, ng, bary).dot(dir) < 0.0
+    }
+
+    /// Solid-angle density with which [`LightSet::sample_area`] would pick the point at
+    /// distance `dist` on `triangle` from direction `wi` (for MIS of BRDF-sampled hits).
+    pub fn area_pdf(&self, triangle: u32, dist: f32, cos_l: f32) -> f32 {
+        let Some(pick) = self.emissive_pick.as_ref() else {
+            return 0.0;
+        };
+        let Some(&idx) = self.emissive_index.get(triangle as usize) else {
+            return 0.0;
+        };
+        if idx == u32::MAX || cos_l <= 0.0 {
+            return 0.0;
+        }
+        let em = &self.emissive[idx as usize];
+        pick.pmf(idx as usize) / em.area * dist * dist / cos_l
+    }
+
+    /// Environment radiance arriving from direction `dir` (world space, towards the sky).
+    pub fn environment_radiance(&self, dir: Vec3) -> Vec3 {
+        match &self.environment {
+            Environment::Constant(c) => *c,
+            Environment::LatLong {
+                width,
+                height,
+                texels,
+            } => {
+                let (u, v) = direction_to_latlong(dir);
+                let x = ((u * *width as f32) as usize).min(*width as usize - 1);
+                let y = ((v * *height as f32) as usize).min(*height as usize - 1);
+                texels[y * *width as usize + x]
+            }
+        }
+    }
+
+    /// Samples the environment as seen from a point with normal `n`: cosine-weighted for a
+    /// constant environment, by the map's luminance otherwise.
+    pub fn sample_environment(&self, n: Vec3, u: Vec2) -> Option<LightSample> {
+        if !self.has_environment() {
+            return None;
+        }
+        let (wi, pdf) = match &self.env_sampler {
+            None => {
+                let local = crate::brdf::cosine_hemisphere(u);
+                let (t, b) = orthonormal_basis(n);
+                let wi = t * local.x + b * local.y + n * local.z;
+                (wi, local.z / PI)
+            }
+            Some(s) => s.sample(u)?,
+        };
+        if !(pdf > 0.0 && pdf.is_finite()) {
+            return None;
+        }
+        Some(LightSample {
+            wi,
+            distance: f32::INFINITY,
+            value: self.environment_radiance(wi) / pdf,
+            pdf,
+        })
+    }
+
+    /// Density of [`LightSet::sample_environment`] for direction `wi` at a point with normal `n`.
+    pub fn environment_pdf(&self, n: Vec3, wi: Vec3) -> f32 {
+        if !self.has_environment() {
+            return 0.0;
+        }
+        match &self.env_sampler {
+            None => wi.dot(n).max(0.0) / PI,
+            Some(s) => s.pdf(wi),
+        }
+    }
+
+    /// Incident light from punctual light `i` at `p`: direction, distance and the delta
+    /// light's contribution factor (intensity / d^2, or irradiance).
+    pub fn sample_punctual(&self, i: usize, p: Vec3) -> Option<LightSample> {
+        match self.punctual[i] {
+            PunctualLight::Point {
+                position,
+                intensity,
+            } => {
+                let to = position - p;
+                let d2 = to.length_squared();
+                if !(d2 > 0.0) {
+                    return None;
+                }
+                let d = d2.sqrt();
+                Some(LightSample {
+                    wi: to / d,
+                    distance: d,
+                    value: intensity / d2,
+                    pdf: 0.0,
+                })
+            }
+            PunctualLight::Spot {
+                position,
+                direction,
+                intensity,
+                inner_cone,
+                outer_cone,
+            } => {
+                let to = position - p;
+                let d2 = to.length_squared();
+                if !(d2 > 0.0) {
+                    return None;
+                }
+                let d = d2.sqrt();
+                let wi = to / d;
+                let cd = (-wi).dot(direction);
+                let (ci, co) = (inner_cone.cos(), outer_cone.cos());
+                // glTF's recommended smooth falloff: linear in cos between the cones, squared.
+                let t = if ci > co {
+                    ((cd - co) / (ci - co)).clamp(0.0, 1.0)
+                } else if cd >= co {
+                    1.0
+                } else {
+                    0.0
+                };
+                let falloff = t * t;
+                if falloff <= 0.0 {
+                    return None;
+                }
+                Some(LightSample {
+                    wi,
+                    distance: d,
+                    value: intensity * falloff / d2,
+                    pdf: 0.0,
+                })
+            }
+            PunctualLight::Directional {
+                direction,
+                irradiance,
+            } => Some(LightSample {
+                wi: -direction,
+                distance: f32::INFINITY,
+                value: irradiance,
+                pdf: 0.0,
+            }),
+        }
+    }
+}
+
+impl EnvMapSampler {
+    fn new(width: usize, height: usize, texels: &[Vec3]) -> Option<EnvMapSampler> {
+        if width == 0 || height == 0 || texels.len() != width * height {
+            return None;
+        }
+        let mut row_weights = Vec::with_capacity(height);
+        let mut columns = Vec::with_capacity(height);
+        for y in 0..height {
+            let sin_t = (PI * (y as f32 + 0.5) / height as f32).sin();
+            let row: Vec<f32> = texels[y * width..(y + 1) * width]
+                .iter()
+                .map(|&c| luminance(c).max(0.0) * sin_t)
+                .collect();
+            let d = Distribution1D::new(&row);
+            row_weights.push(d.as_ref().map_or(0.0, |d| d.total() as f32));
+            columns.push(d);
+        }
+        let rows = Distribution1D::new(&row_weights)?;
+        Some(EnvMapSampler {
+            width,
+            height,
+            rows,
+            columns,
+        })
+    }
+
+    fn sample(&self, u: Vec2) -> Option<(Vec3, f32)> {
+        let (y, fy) = self.rows.sample(u.y);
+        let cols = self.columns[y].as_ref()?;
+        let (x, fx) = cols.sample(u.x);
+        let uu = (x as f32 + fx) / self.width as f32;
+        let vv = (y as f32 + fy) / self.height as f32;
+        let dir = latlong_to_direction(uu, vv);
+        let sin_t = (PI * vv).sin();
+        if sin_t <= 0.0 {
+            return None;
+        }
+        let pdf_uv = self.rows.pmf(y) * cols.pmf(x) * (self.width * self.height) as f32;
+        Some((dir, pdf_uv / (2.0 * PI * PI * sin_t)))
+    }
+
+    fn pdf(&self, dir: Vec3) -> f32 {
+        let (u, v) = direction_to_latlong(dir);
+        let x = ((u * self.width as f32) as usize).min(self.width - 1);
+        let y = ((v * self.height as f32) as usize).min(self.height - 1);
+        let Some(cols) = self.columns[y].as_ref() else {
+            return 0.0;
+        };
+        let sin_t = (PI * v).sin();
+        if sin_t <= 0.0 {
+            return 0.0;
+        }
+        let pdf_uv = self.rows.pmf(y) * cols.pmf(x) * (self.width * self.height) as f32;
+        pdf_uv / (2.0 * PI * PI * sin_t)
+    }
+}
+
+/// Lat-long convention of [`Environment::LatLong`]: theta from +Y, phi about Y with phi = 0
+/// towards -Z.
+pub fn latlong_to_direction(u: f32, v: f32) -> Vec3 {
+    let theta = PI * v;
+    let phi = 2.0 * PI * (u - 0.5);
+    let st = theta.sin();
+    Vec3::new(st * phi.sin(), theta.cos(), -st * phi.cos())
+}
+
+pub fn direction_to_latlong(d: Vec3) -> (f32, f32) {
+    let theta = d.y.clamp(-1.0, 1.0).acos();
+    let phi = d.x.atan2(-d.z);
+    let u = (phi / (2.0 * PI) + 0.5).rem_euclid(1.0);
+    (u, (theta / PI).clamp(0.0, 1.0))
+}
+
+/// Tangent and bitangent completing the unit normal `n` (Duff et al. 2017, branchless).
+#[inline]
+pub fn orthonormal_basis(n: Vec3) -> (Vec3, Vec3) {
+    let sign = 1.0f32.copysign(n.z);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    (
+        Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+        Vec3::new(b, sign + n.y * n.y * a, -n.y),
+    )
+}

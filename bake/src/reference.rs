@@ -1,0 +1,213 @@
+//! The reference path tracer: renders the camera view with the true BRDFs for an exact number
+//! of reflections, using the shared [`Integrator`], so it is the ground truth for a bake with
+//! the same reflection count.
+
+use std::time::Instant;
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::brdf::{BrdfParams, BrdfSample};
+use crate::integrator::{Integrator, MaterialModel, PathSink, Slots, Surface};
+use crate::sampling::Rng;
+use crate::scene::Scene;
+
+/// Every material with its true BRDF (base-colour texture applied to Kd): one slot per vertex,
+/// sampled by the BRDF's own importance sampling.
+pub struct TrueBrdfModel<'a> {
+    scene: &'a Scene,
+    brdfs: Vec<BrdfParams>,
+}
+
+impl<'a> TrueBrdfModel<'a> {
+    /// Uses the BRDFs of the scene's materials.
+    pub fn new(scene: &'a Scene) -> Self {
+        let brdfs = scene.materials.iter().map(|m| m.brdf).collect();
+        TrueBrdfModel { scene, brdfs }
+    }
+
+    /// Uses the given BRDF per material (same order as `scene.materials`).
+    pub fn with_brdfs(scene: &'a Scene, brdfs: Vec<BrdfParams>) -> Self {
+        TrueBrdfModel { scene, brdfs }
+    }
+
+    #[inline]
+    fn brdf_at(&self, s: &Surface) -> BrdfParams {
+        let mut b = self.brdfs[s.material as usize];
+        let m = &self.scene.materials[s.material as usize];
+        if let Some(t) = m.base_color_texture.and_then(|t| self.scene.textures.get(t)) {
+            b.kd *= t.sample(s.uv);
+        }
+        b
+    }
+}
+
+impl MaterialModel for TrueBrdfModel<'_> {
+    #[inline]
+    fn eval(&self, s: &Surface, _depth: usize, wo: Vec3, wi: Vec3, out: &mut Slots) {
+        out.material = s.material;
+        out.len = 1;
+        out.values[0] = self.brdf_at(s).eval(wo, wi);
+    }
+
+    #[inline]
+    fn sample(&self, s: &Surface, wo: Vec3, rng: &mut Rng) -> Option<BrdfSample> {
+        let u_lobe = rng.next_f32();
+        let u = rng.next_vec2();
+        self.brdf_at(s).sample(wo, u, u_lobe)
+    }
+
+    #[inline]
+    fn pdf(&self, s: &Surface, wo: Vec3, wi: Vec3) -> f32 {
+        self.brdf_at(s).pdf(wo, wi)
+    }
+}
+
+/// Contracts each path's slot values with per-material coefficients into one colour.
+pub struct ContractSink<'a> {
+    /// `coefficients[material][slot]`, RGB.
+    pub coefficients: &'a [Vec<Vec3>],
+    pub value: Vec3,
+    pub first_material: Option<u32>,
+}
+
+impl<'a> ContractSink<'a> {
+    pub fn new(coefficients: &'a [Vec<Vec3>]) -> Self {
+        ContractSink {
+            coefficients,
+            value: Vec3::ZERO,
+            first_material: None,
+        }
+    }
+
+    #[inline]
+    fn contract(&self, s: &Slots) -> Vec3 {
+        let c = &self.coefficients[s.material as usize];
+        s.as_slice()
+            .iter()
+            .zip(c.iter())
+            .fold(Vec3::ZERO, |acc, (v, c)| acc + *v * *c)
+    }
+}
+
+impl PathSink for ContractSink<'_> {
+    fn camera_emission(&mut self, radiance: Vec3) {
+        self.value += radiance;
+    }
+
+    fn first_hit(&mut self, surface: &Surface) {
+        self.first_material = Some(surface.material);
+    }
+
+    #[inline]
+    fn path(&mut self, prefix: &[Slots], last: &Slots, weight: Vec3) {
+        let mut v = weight * self.contract(last);
+        for s in prefix {
+            v *= self.contract(s);
+        }
+        if v.is_finite() {
+            self.value += v;
+        }
+    }
+}
+
+/// Coefficients that select the single true-BRDF slot of every material.
+pub fn unit_coefficients(material_count: usize) -> Vec<Vec<Vec3>> {
+    vec![vec![Vec3::ONE]; material_count]
+}
+
+/// An image with the figures of the run that made it.
+#[derive(Clone, Debug)]
+pub struct Render {
+    pub width: u32,
+    pub height: u32,
+    /// Row-major, top row first, linear RGB radiance.
+    pub pixels: Vec<Vec3>,
+    pub spp: u32,
+    pub rays: u64,
+    pub seconds: f64,
+    /// Mean radiance of the camera samples whose first hit is each material (None when the
+    /// material covers no sample), and the number of such samples.
+    pub material_means: Vec<(Option<Vec3>, u64)>,
+    /// Mean radiance of samples that hit nothing.
+    pub background_mean: (Option<Vec3>, u64),
+}
+
+impl Render {
+    pub fn mean(&self) -> Vec3 {
+        self.pixels.iter().copied().sum::<Vec3>() / self.pixels.len().max(1) as f32
+    }
+}
+
+/// Renders `integrator`'s view with `model`, contracting with `coefficients`, `spp` samples per
+/// pixel, streams keyed by `seed`. Deterministic for any thread count: each pixel owns its
+/// streams and pixels are reduced in a fixed order.
+pub fn render<M: MaterialModel>(
+    integrator: &Integrator,
+    model: &M,
+    coefficients: &[Vec<Vec3>],
+    spp: u32,
+    seed: u64,
+    progress: Option<&indicatif::ProgressBar>,
+) -> Render {
+    let start = Instant::now();
+    let (w, h) = (integrator.width, integrator.height);
+    let nmat = integrator.scene.materials.len();
+    struct RowOut {
+        pixels: Vec<Vec3>,
+        rays: u64,
+        sums: Vec<(Vec3, u64)>,
+    }
+    let rows: Vec<RowOut> = (0..h)
+        .into_par_iter()
+        .map(|y| {
+            let mut out = RowOut {
+                pixels: Vec::with_capacity(w as usize),
+                rays: 0,
+                sums: vec![(Vec3::ZERO, 0); nmat + 1],
+            };
+            for x in 0..w {
+                let pixel = y as u64 * w as u64 + x as u64;
+                let mut acc = Vec3::ZERO;
+                for s in 0..spp {
+                    let mut rng = Rng::for_sample(seed, pixel, s as u64);
+                    let mut sink = ContractSink::new(coefficients);
+                    out.rays += integrator.trace_sample(model, &mut sink, x, y, &mut rng) as u64;
+                    acc += sink.value;
+                    let bucket = sink.first_material.map_or(nmat, |m| m as usize);
+                    out.sums[bucket].0 += sink.value;
+                    out.sums[bucket].1 += 1;
+                }
+                out.pixels.push(acc / spp.max(1) as f32);
+            }
+            if let Some(p) = progress {
+                p.inc(1);
+            }
+            out
+        })
+        .collect();
+    let mut pixels = Vec::with_capacity((w * h) as usize);
+    let mut rays = 0;
+    let mut sums = vec![(glam::DVec3::ZERO, 0u64); nmat + 1];
+    for r in rows {
+        pixels.extend(r.pixels);
+        rays += r.rays;
+        for (acc, (v, n)) in sums.iter_mut().zip(r.sums) {
+            acc.0 += v.as_dvec3();
+            acc.1 += n;
+        }
+    }
+    let mean = |(v, n): (glam::DVec3, u64)| ((n > 0).then(|| (v / n as f64).as_vec3()), n);
+    let background_mean = mean(sums[nmat]);
+    let material_means = sums[..nmat].iter().map(|&s| mean(s)).collect();
+    Render {
+        width: w,
+        height: h,
+        pixels,
+        spp,
+        rays,
+        seconds: start.elapsed().as_secs_f64(),
+        material_means,
+        background_mean,
+    }
+}
