@@ -4,3 +4,9 @@
 pub mod brdf;
 pub mod scene;
 pub mod config;
+pub mod accel;
+pub mod integrator;
+pub mod lights;
+pub mod sampling;
+pub mod reference;
+pub mod testing;
