@@ -9,8 +9,10 @@ use glam::{Vec2, Vec3};
 
 use crate::brdf::BrdfParams;
 
+pub mod envmap;
+mod gltf_io;
 pub mod load;
-pub use load::load;
+pub use load::{load, load_with_warnings, SceneError};
 
 /// A linear-RGB texture (sRGB-encoded glTF base-colour/emissive textures are decoded on load).
 #[derive(Clone, Debug)]
