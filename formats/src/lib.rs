@@ -1,2 +1,21 @@
-//! Bake file container and shared schemas.
+//! Shared infrastructure of the baker and the runtime (which must never depend on the baker):
+//! the bake-file container, image output, and the material-override syntax of the CLIs.
+//!
+//! * [`container`]: the bake file (safetensors layout, checksums, versioning, zero-copy reads).
+//! * [`image_io`]: EXR/PNG writing (atomic) and EXR reading.
+//! * [`overrides`]: `--set MATERIAL.PARAM=VALUE` parsing.
+
 pub mod basis;
+pub mod container;
+pub mod image_io;
+pub mod overrides;
+pub mod pixel;
+
+pub use container::{
+    BakeFile, BakeWriter, Dtype, Element, FormatError, TensorView, FORMAT_NAME, SCHEMA_VERSION,
+    TENSOR_ALIGN,
+};
+pub use image_io::{read_exr_rgb, write_exr, write_image, write_png, ImageIoError};
+pub use overrides::{
+    check_material, parse_override, MaterialOverride, OverrideError, OverrideValue, Param,
+};

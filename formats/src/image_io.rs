@@ -1,0 +1,291 @@
+//! Image output shared by the runtime (`relight`) and the baker (`reference`): linear EXR for
+//! measurements, tone-mapped PNG for looking at. Every writer is atomic (temporary file, fsync,
+//! rename; see [`crate::container::write_file_atomic`]), so an interrupted render never leaves a
+//! half-written image behind and a failed write leaves the previous image untouched.
+//!
+//! Pixels are `[f32; 3]` linear RGB in row-major order, top row first (`rgb[y * width + x]`).
+
+use std::io;
+use std::path::{Path, PathBuf};
+
+use exr::prelude::{
+    Encoding, Image, ReadChannels, ReadLayers, SpecificChannels, Vec2, WritableImage,
+};
+
+use crate::container::write_file_atomic;
+
+/// Sample type of an EXR file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ExrPrecision {
+    /// 32-bit float: lossless for our f32 renders (the default; use for measurements).
+    #[default]
+    F32,
+    /// 16-bit half float: half the size; finite values beyond ±65504 saturate to ±65504
+    /// instead of becoming infinite (NaN and infinities are kept as they are).
+    F16,
+}
+
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ImageIoError {
+    #[error(
+        "cannot write {}: unsupported image extension {}; use .exr (linear radiance) or .png \
+         (tone-mapped)",
+        .path.display(),
+        .ext.as_deref().map_or("(none)".to_string(), |e| format!("'.{e}'"))
+    )]
+    UnsupportedExtension { path: PathBuf, ext: Option<String> },
+    #[error(
+        "cannot write {}: a {width}x{height} image needs {} pixels, but {len} were given",
+        .path.display(), (*.width as u128) * (*.height as u128)
+    )]
+    SizeMismatch {
+        path: PathBuf,
+        width: usize,
+        height: usize,
+        len: usize,
+    },
+    #[error("cannot write {}: the image is empty ({width}x{height})", .path.display())]
+    Empty {
+        path: PathBuf,
+        width: usize,
+        height: usize,
+    },
+    #[error("cannot write {}: {width}x{height} is too large for the format", .path.display())]
+    TooLarge {
+        path: PathBuf,
+        width: usize,
+        height: usize,
+    },
+    #[error(
+        "cannot write {}: exposure must be a finite number >= 0, got {exposure}",
+        .path.display()
+    )]
+    BadExposure { path: PathBuf, exposure: f32 },
+    #[error("cannot write image {}: {source}", .path.display())]
+    Write { path: PathBuf, source: io::Error },
+    #[error("cannot read EXR {}: {reason}", .path.display())]
+    Read { path: PathBuf, reason: String },
+}
+
+type Result<T, E = ImageIoError> = std::result::Result<T, E>;
+
+fn check_size(path: &Path, width: usize, height: usize, len: usize) -> Result<()> {
+    if width == 0 || height == 0 {
+        return Err(ImageIoError::Empty {
+            path: path.to_path_buf(),
+            width,
+            height,
+        });
+    }
+    if width.checked_mul(height) != Some(len) {
+        return Err(ImageIoError::SizeMismatch {
+            path: path.to_path_buf(),
+            width,
+            height,
+            len,
+        });
+    }
+    Ok(())
+}
+
+fn write_err(path: &Path) -> impl FnOnce(io::Error) -> ImageIoError + '_ {
+    move |source| ImageIoError::Write {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+/// Writes scene-linear RGB as a 32-bit float EXR (ZIP compressed, lossless).
+pub fn write_exr(
+    path: impl AsRef<Path>,
+    width: usize,
+    height: usize,
+    rgb: &[[f32; 3]],
+) -> Result<()> {
+    write_exr_with(path, width, height, rgb, ExrPrecision::F32)
+}
+
+/// Writes scene-linear RGB as an EXR with the given sample precision (ZIP compressed).
+pub fn write_exr_with(
+    path: impl AsRef<Path>,
+    width: usize,
+    height: usize,
+    rgb: &[[f32; 3]],
+    precision: ExrPrecision,
+) -> Result<()> {
+    let path = path.as_ref();
+    check_size(path, width, height, rgb.len())?;
+    // EXR stores coordinates as i32.
+    if i32::try_from(width).is_err() || i32::try_from(height).is_err() {
+        return Err(ImageIoError::TooLarge {
+            path: path.to_path_buf(),
+            width,
+            height,
+        });
+    }
+    // ZIP over 16 scanlines: renders are noisy, which defeats run-length coding, and every EXR
+    // reader supports scanline ZIP.
+    let encoding = Encoding::SMALL_LOSSLESS;
+    let pixel = move |Vec2(x, y): Vec2<usize>| rgb[y * width + x];
+    write_file_atomic(path, |w| {
+        let result = match precision {
+            ExrPrecision::F32 => {
+                let channels = SpecificChannels::rgb(|p| {
+                    let [r, g, b] = pixel(p);
+                    (r, g, b)
+                });
+                Image::from_encoded_channels((width, height), encoding, channels)
+                    .write()
+                    .to_buffered(w)
+            }
+            ExrPrecision::F16 => {
+                let channels = SpecificChannels::rgb(|p| {
+                    let [r, g, b] = pixel(p);
+                    (
+                        to_f16_saturating(r),
+                        to_f16_saturating(g),
+                        to_f16_saturating(b),
+                    )
+                });
+                Image::from_encoded_channels((width, height), encoding, channels)
+                    .write()
+                    .to_buffered(w)
+            }
+        };
+        result.map_err(|e| io::Error::other(format!("EXR encoder: {e}")))
+    })
+    .map_err(write_err(path))
+}
+
+/// f32 -> f16 that keeps finite values finite (saturating at ±65504, the largest half).
+fn to_f16_saturating(v: f32) -> half::f16 {
+    if v.is_finite() {
+        half::f16::from_f32(v.clamp(-65504.0, 65504.0))
+    } else {
+        half::f16::from_f32(v)
+    }
+}
+
+/// The sRGB opto-electronic transfer function (IEC 61966-2-1), for linear values in [0, 1].
+pub fn srgb_oetf(linear: f32) -> f32 {
+    if linear <= 0.003_130_8 {
+        12.92 * linear
+    } else {
+        1.055 * linear.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// Display encoding of one linear channel: scale by `exposure`, clamp to [0, 1] (NaN and
+/// negative values give 0), sRGB OETF, round to 8 bits.
+pub fn tonemap_srgb8(linear: f32, exposure: f32) -> u8 {
+    let v = linear * exposure;
+    // `!(v > 0.0)` also catches NaN.
+    let v = if v > 0.0 { v.min(1.0) } else { 0.0 };
+    (srgb_oetf(v) * 255.0 + 0.5) as u8
+}
+
+/// Writes a tone-mapped 8-bit sRGB PNG: each channel is scaled by `exposure` (a linear
+/// multiplier; 1 = unchanged), clamped to [0, 1] and sRGB-encoded.
+pub fn write_png(
+    path: impl AsRef<Path>,
+    width: usize,
+    height: usize,
+    rgb: &[[f32; 3]],
+    exposure: f32,
+) -> Result<()> {
+    use image::ImageEncoder;
+
+    let path = path.as_ref();
+    check_size(path, width, height, rgb.len())?;
+    if !(exposure.is_finite() && exposure >= 0.0) {
+        return Err(ImageIoError::BadExposure {
+            path: path.to_path_buf(),
+            exposure,
+        });
+    }
+    let (Ok(w32), Ok(h32)) = (u32::try_from(width), u32::try_from(height)) else {
+        return Err(ImageIoError::TooLarge {
+            path: path.to_path_buf(),
+            width,
+            height,
+        });
+    };
+    let bytes: Vec<u8> = rgb
+        .iter()
+        .flat_map(|p| p.map(|c| tonemap_srgb8(c, exposure)))
+        .collect();
+    write_file_atomic(path, |w| {
+        image::codecs::png::PngEncoder::new(w)
+            .write_image(&bytes, w32, h32, image::ExtendedColorType::Rgb8)
+            .map_err(|e| io::Error::other(format!("PNG encoder: {e}")))
+    })
+    .map_err(write_err(path))
+}
+
+/// Writes `.exr` (scene-linear, f32; `exposure` is NOT applied, so the numbers stay comparable
+/// with reference renders) or `.png` (tone-mapped with `exposure`), chosen by the extension
+/// (case-insensitive). Any other extension is an error and nothing is written.
+pub fn write_image(
+    path: impl AsRef<Path>,
+    width: usize,
+    height: usize,
+    rgb: &[[f32; 3]],
+    exposure: f32,
+) -> Result<()> {
+    let path = path.as_ref();
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase());
+    match ext.as_deref() {
+        Some("exr") => write_exr(path, width, height, rgb),
+        Some("png") => write_png(path, width, height, rgb, exposure),
+        _ => Err(ImageIoError::UnsupportedExtension {
+            path: path.to_path_buf(),
+            ext: path.extension().map(|e| e.to_string_lossy().into_owned()),
+        }),
+    }
+}
+
+/// Reads the first RGB(A) layer of an EXR as linear f32 RGB (alpha is dropped), returning
+/// `(width, height, pixels)` with pixels row-major, top row first.
+pub fn read_exr_rgb(path: impl AsRef<Path>) -> Result<(usize, usize, Vec<[f32; 3]>)> {
+    let path = path.as_ref();
+    let read_err = |reason: String| ImageIoError::Read {
+        path: path.to_path_buf(),
+        reason,
+    };
+    if !path.is_file() {
+        return Err(read_err(if path.exists() {
+            "not a regular file".to_string()
+        } else {
+            "no such file".to_string()
+        }));
+    }
+    struct Pixels {
+        width: usize,
+        data: Vec<[f32; 3]>,
+    }
+    let image = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .rgba_channels(
+            |size, _| Pixels {
+                width: size.width(),
+                data: vec![[0.0; 3]; size.area()],
+            },
+            |px: &mut Pixels, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                // In range: the decoder only yields positions inside the layer's size.
+                if let Some(p) = px.data.get_mut(pos.y() * px.width + pos.x()) {
+                    *p = [r, g, b];
+                }
+            },
+        )
+        .first_valid_layer()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| read_err(e.to_string()))?;
+    let size = image.layer_data.size;
+    let pixels = image.layer_data.channel_data.pixels;
+    Ok((size.width(), size.height(), pixels.data))
+}

@@ -1,0 +1,292 @@
+//! The command-line material override syntax shared by the `reference` tool (baker) and the
+//! `relight` tool (runtime): `--set MATERIAL.PARAM=VALUE`.
+//!
+//! ```text
+//! bunny.kd=0.8,0.2,0.2     diffuse albedo (RGB)
+//! bunny.ks=0.5             specular albedo; a single number means gray (0.5,0.5,0.5)
+//! bunny.shininess=50       Blinn-Phong exponent, in [0, 1e6]
+//! wall.alpha=0.3           GGX roughness, in [1e-4, 1]
+//! ```
+//!
+//! The material name is everything before the *last* dot before `=`, so names may contain dots
+//! (`car.body.paint.kd=...` sets `kd` of material `car.body.paint`); they cannot contain `=`.
+//! Whether the material exists is checked by the caller, who knows the scene
+//! ([`check_material`]).
+
+use std::fmt;
+use std::str::FromStr;
+
+/// Largest accepted Blinn-Phong exponent.
+pub const SHININESS_MAX: f32 = 1e6;
+/// Smallest accepted GGX roughness (below it the lobe is a numerical delta).
+pub const ALPHA_MIN: f32 = 1e-4;
+/// Largest accepted GGX roughness.
+pub const ALPHA_MAX: f32 = 1.0;
+
+/// A material parameter that can be overridden. New parameters are added here (with their
+/// name in [`Param::name`] and a variant in [`OverrideValue`]); the error messages list the
+/// valid names from [`Param::ALL`] automatically.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum Param {
+    Kd,
+    Ks,
+    Shininess,
+    Alpha,
+}
+
+impl Param {
+    pub const ALL: &'static [Param] = &[Param::Kd, Param::Ks, Param::Shininess, Param::Alpha];
+
+    /// The name used on the command line.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Param::Kd => "kd",
+            Param::Ks => "ks",
+            Param::Shininess => "shininess",
+            Param::Alpha => "alpha",
+        }
+    }
+
+    /// Parses a parameter name (ASCII case-insensitive, so `Kd` works too).
+    pub fn from_name(name: &str) -> Option<Param> {
+        Param::ALL
+            .iter()
+            .copied()
+            .find(|p| p.name().eq_ignore_ascii_case(name))
+    }
+
+    fn valid_names() -> String {
+        Param::ALL
+            .iter()
+            .map(|p| p.name())
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}
+
+impl fmt::Display for Param {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// The new value of one parameter.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
+pub enum OverrideValue {
+    /// Diffuse albedo, linear RGB, each >= 0.
+    Kd([f32; 3]),
+    /// Specular albedo, linear RGB, each >= 0.
+    Ks([f32; 3]),
+    /// Blinn-Phong exponent in [0, [`SHININESS_MAX`]].
+    Shininess(f32),
+    /// GGX roughness in [[`ALPHA_MIN`], [`ALPHA_MAX`]].
+    Alpha(f32),
+}
+
+impl OverrideValue {
+    pub fn param(&self) -> Param {
+        match self {
+            OverrideValue::Kd(_) => Param::Kd,
+            OverrideValue::Ks(_) => Param::Ks,
+            OverrideValue::Shininess(_) => Param::Shininess,
+            OverrideValue::Alpha(_) => Param::Alpha,
+        }
+    }
+}
+
+/// One parsed `--set` argument.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MaterialOverride {
+    pub material: String,
+    pub value: OverrideValue,
+}
+
+impl fmt::Display for MaterialOverride {
+    /// Formats back into the command-line syntax (parses to the same value).
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}.{}=", self.material, self.value.param())?;
+        match self.value {
+            OverrideValue::Kd([r, g, b]) | OverrideValue::Ks([r, g, b]) => {
+                write!(f, "{r},{g},{b}")
+            }
+            OverrideValue::Shininess(v) | OverrideValue::Alpha(v) => write!(f, "{v}"),
+        }
+    }
+}
+
+impl FromStr for MaterialOverride {
+    type Err = OverrideError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        parse_override(s)
+    }
+}
+
+/// Why an override was rejected. Every message quotes the offending input.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum OverrideError {
+    #[error("'{input}': missing '=' (expected MATERIAL.PARAM=VALUE, e.g. bunny.kd=0.8,0.2,0.2)")]
+    MissingEquals { input: String },
+    #[error(
+        "'{input}': missing '.' between material and parameter (expected MATERIAL.PARAM=VALUE, \
+         e.g. bunny.shininess=50)"
+    )]
+    MissingDot { input: String },
+    #[error("'{input}': empty material name")]
+    EmptyMaterial { input: String },
+    #[error("'{input}': unknown parameter '{param}'; valid parameters: {valid}")]
+    UnknownParam {
+        input: String,
+        param: String,
+        valid: String,
+    },
+    #[error("'{input}': {param} needs {expected}, got {got}")]
+    WrongComponentCount {
+        input: String,
+        param: Param,
+        expected: &'static str,
+        got: usize,
+    },
+    #[error("'{input}': '{text}' is not a number")]
+    NotANumber { input: String, text: String },
+    #[error("'{input}': {param} must be finite, got {value}")]
+    NonFinite {
+        input: String,
+        param: Param,
+        value: f32,
+    },
+    #[error("'{input}': {param} must not be negative, got {value}")]
+    Negative {
+        input: String,
+        param: Param,
+        value: f32,
+    },
+    #[error("'{input}': {param} must be in [{min}, {max}], got {value}")]
+    OutOfRange {
+        input: String,
+        param: Param,
+        value: f32,
+        min: f32,
+        max: f32,
+    },
+    #[error("unknown material '{name}'; the scene has: {available}")]
+    UnknownMaterial { name: String, available: String },
+}
+
+/// Parses `MATERIAL.PARAM=VALUE`. Usable directly as a clap `value_parser`.
+pub fn parse_override(s: &str) -> Result<MaterialOverride, OverrideError> {
+    let input = || s.to_string();
+    let (lhs, rhs) = s
+        .split_once('=')
+        .ok_or_else(|| OverrideError::MissingEquals { input: input() })?;
+    let (material, param) = lhs
+        .rsplit_once('.')
+        .ok_or_else(|| OverrideError::MissingDot { input: input() })?;
+    if material.is_empty() {
+        return Err(OverrideError::EmptyMaterial { input: input() });
+    }
+    let param_text = param.trim();
+    let param = Param::from_name(param_text).ok_or_else(|| OverrideError::UnknownParam {
+        input: input(),
+        param: param_text.to_string(),
+        valid: Param::valid_names(),
+    })?;
+
+    let values = rhs
+        .split(',')
+        .map(|t| {
+            let t = t.trim();
+            t.parse::<f32>().map_err(|_| OverrideError::NotANumber {
+                input: input(),
+                text: t.to_string(),
+            })
+        })
+        .collect::<Result<Vec<f32>, _>>()?;
+    for &value in &values {
+        if !value.is_finite() {
+            return Err(OverrideError::NonFinite {
+                input: input(),
+                param,
+                value,
+            });
+        }
+        // `-0` is harmless; treat it as zero rather than reject it.
+        if value < 0.0 {
+            return Err(OverrideError::Negative {
+                input: input(),
+                param,
+                value,
+            });
+        }
+    }
+
+    let count_err = |expected| OverrideError::WrongComponentCount {
+        input: input(),
+        param,
+        expected,
+        got: values.len(),
+    };
+    let rgb = || match *values.as_slice() {
+        [v] => Ok([v; 3]),
+        [r, g, b] => Ok([r, g, b]),
+        _ => Err(count_err(
+            "1 number (gray) or 3 comma-separated numbers (RGB)",
+        )),
+    };
+    let scalar = |min: f32, max: f32| match *values.as_slice() {
+        [v] if (min..=max).contains(&v) => Ok(v),
+        [value] => Err(OverrideError::OutOfRange {
+            input: input(),
+            param,
+            value,
+            min,
+            max,
+        }),
+        _ => Err(count_err("exactly 1 number")),
+    };
+    let value = match param {
+        Param::Kd => OverrideValue::Kd(rgb()?),
+        Param::Ks => OverrideValue::Ks(rgb()?),
+        Param::Shininess => OverrideValue::Shininess(scalar(0.0, SHININESS_MAX)?),
+        Param::Alpha => OverrideValue::Alpha(scalar(ALPHA_MIN, ALPHA_MAX)?),
+    };
+    Ok(MaterialOverride {
+        material: material.to_string(),
+        value,
+    })
+}
+
+/// Checks that `name` is one of the scene's materials (exact, case-sensitive match).
+pub fn check_material(name: &str, available: &[&str]) -> Result<(), OverrideError> {
+    if available.contains(&name) {
+        return Ok(());
+    }
+    Err(OverrideError::UnknownMaterial {
+        name: name.to_string(),
+        available: if available.is_empty() {
+            "no materials".to_string()
+        } else {
+            available.join(", ")
+        },
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn display_round_trips() {
+        for s in [
+            "bunny.kd=0.8,0.2,0.2",
+            "a.b.ks=0.5,0.5,0.5",
+            "x.shininess=50",
+            "wall.alpha=0.3",
+        ] {
+            let o = parse_override(s).unwrap();
+            assert_eq!(parse_override(&o.to_string()).unwrap(), o);
+        }
+    }
+}
