@@ -1316,12 +1316,14 @@ fn parse(path: &Path, bytes: &[u8]) -> Result<Parsed> {
         ))
     })?;
     let parse_hex = |what: &str, s: &str| {
-        if s.len() == 8 {
+        // Exactly the canonical spelling (8 lowercase hex digits), so that the stored text
+        // has one form and any change to it is detected.
+        if s.len() == 8 && s.bytes().all(|b| matches!(b, b'0'..=b'9' | b'a'..=b'f')) {
             u32::from_str_radix(s, 16).ok()
         } else {
             None
         }
-        .ok_or_else(|| invalid(format!("{what} '{s}' is not 8 hex digits")))
+        .ok_or_else(|| invalid(format!("{what} '{s}' is not 8 lowercase hex digits")))
     };
     let stored_header_crc = meta
         .get(keys::HEADER_CRC32)
