@@ -18,6 +18,9 @@ const MAX_VIRTUAL_ELEMENTS: usize = 1 << 26;
 
 /// Parses a `.gltf` (JSON) or `.glb` byte string and validates it against the glTF schema.
 pub(super) fn parse(bytes: &[u8]) -> Result<gltf::Gltf, String> {
+    if bytes.is_empty() {
+        return Err("the file is empty".to_owned());
+    }
     if bytes.starts_with(b"glTF") {
         // gltf 1.4 computes `header.length - 12` unchecked; a length below 20 (header plus one
         // chunk header) would underflow, so reject it here.
@@ -42,11 +45,37 @@ pub(super) fn parse(bytes: &[u8]) -> Result<gltf::Gltf, String> {
     }
     // The crate is third-party code parsing untrusted input; if it ever panics on some input
     // we did not foresee, turn that into an error too rather than abort the bake.
-    match std::panic::catch_unwind(|| gltf::Gltf::from_slice(bytes)) {
+    let parsed = std::panic::catch_unwind(|| {
+        let g = gltf::Gltf::from_slice_without_validation(bytes)?;
+        let errors = validate(g.document.as_json());
+        if errors.is_empty() {
+            Ok(g)
+        } else {
+            Err(gltf::Error::Validation(errors))
+        }
+    });
+    match parsed {
         Ok(Ok(g)) => Ok(g),
         Ok(Err(e)) => Err(describe_gltf_error(&e)),
         Err(_) => Err("the glTF parser failed on this input (malformed file)".to_owned()),
     }
+}
+
+/// The crate's schema validation, minus one rule: POSITION accessors must declare `min` and
+/// `max`. Those are bounds hints we never read (bounds come from the data), and hand-written
+/// or lightly exported files often omit them, so refusing such files would help nobody.
+fn validate(root: &gltf::json::Root) -> Vec<(gltf::json::Path, gltf::json::validation::Error)> {
+    use gltf::json::validation::{Error, Validate};
+    let mut errors = Vec::new();
+    root.validate(root, gltf::json::Path::new, &mut |path, error| {
+        let p = path();
+        let s = p.as_str();
+        let bounds_hint = s.ends_with("[\"POSITION\"].min") || s.ends_with("[\"POSITION\"].max");
+        if !(bounds_hint && matches!(error, Error::Missing)) {
+            errors.push((p, error));
+        }
+    });
+    errors
 }
 
 fn describe_gltf_error(e: &gltf::Error) -> String {

@@ -615,7 +615,7 @@ impl<'a> Loader<'a> {
                     (0..n_verts as u32).collect()
                 }
             };
-            if indices.len() % 3 != 0 {
+            if !indices.len().is_multiple_of(3) {
                 return Err(perr(format!(
                     "{} indices is not a multiple of 3 (mode TRIANGLES)",
                     indices.len()
@@ -629,23 +629,19 @@ impl<'a> Loader<'a> {
                     n_gltf_materials as u32
                 }
             };
-            if let Some(i) = prim.material().index() {
-                if prim
-                    .material()
-                    .pbr_metallic_roughness()
-                    .base_color_texture()
-                    .is_some()
-                    || prim.material().emissive_texture().is_some()
-                {
-                    if uv.is_none() {
-                        self.warnings.push(format!(
-                            "{}: mesh \"{}\" primitive {pi}: material {i} has a texture but the \
-                             primitive has no TEXCOORD_0; it samples texel (0, 0)",
-                            self.path.display(),
-                            mesh_label(mesh)
-                        ));
-                    }
-                }
+            let textured = prim
+                .material()
+                .pbr_metallic_roughness()
+                .base_color_texture()
+                .is_some()
+                || prim.material().emissive_texture().is_some();
+            if textured && uv.is_none() {
+                self.warnings.push(format!(
+                    "{}: mesh \"{}\" primitive {pi}: its material has a texture but the \
+                     primitive has no TEXCOORD_0; it samples texel (0, 0)",
+                    self.path.display(),
+                    mesh_label(mesh)
+                ));
             }
 
             // World-space attributes.
