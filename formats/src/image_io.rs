@@ -127,7 +127,9 @@ pub fn write_exr_with(
     // ZIP over 16 scanlines: renders are noisy, which defeats run-length coding, and every EXR
     // reader supports scanline ZIP.
     let encoding = Encoding::SMALL_LOSSLESS;
-    let pixel = move |Vec2(x, y): Vec2<usize>| rgb[y * width + x];
+    // The encoder only asks for positions inside (width, height), and the length was checked;
+    // `get` keeps even a misbehaving encoder from causing a panic.
+    let pixel = move |Vec2(x, y): Vec2<usize>| rgb.get(y * width + x).copied().unwrap_or_default();
     write_file_atomic(path, |w| {
         let result = match precision {
             ExrPrecision::F32 => {
