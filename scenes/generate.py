@@ -527,8 +527,8 @@ def ring():
     g.node("ring", mesh=g.mesh("ring", [(rg, ring_mat, True)]))
     # A low point light to the side: light entering the ring reflects off its inner wall and
     # focuses into the cardioid caustic on the floor inside the ring (thesis, Ring scene).
-    g.point_light("lamp", (-0.45, 0.12, 0.05), (1.0, 0.97, 0.9), 3.0)
-    g.camera("camera", (0.05, 0.32, 0.28), (0.0, 0.0, 0.0), 40.0)
+    g.point_light("lamp", (-0.8, 0.2, 0.05), (1.0, 0.97, 0.9), 6.0)
+    g.camera("camera", (0.0, 0.42, 0.32), (0.0, 0.0, -0.01), 40.0)
     g.write_gltf(folder, "ring")
     write_text(os.path.join(folder, "bake.toml"), """\
 # A glossy napkin ring casting a caustic under a point light (scenes/generate.py).

@@ -205,15 +205,15 @@ fn ring_loads() {
             position,
             intensity,
         } => {
-            assert!(position.abs_diff_eq(Vec3::new(-0.45, 0.12, 0.05), 1e-6));
-            assert!(intensity.abs_diff_eq(Vec3::new(3.0, 2.91, 2.7), 1e-5));
+            assert!(position.abs_diff_eq(Vec3::new(-0.8, 0.2, 0.05), 1e-6));
+            assert!(intensity.abs_diff_eq(Vec3::new(6.0, 5.82, 5.4), 1e-5));
         }
         other => panic!("{other:?}"),
     }
     // Camera above, looking down at the ring at an angle.
     let cam = scene.camera;
     assert!(cam.position.y > 0.2);
-    let to_origin = (-cam.position).normalize();
+    let to_origin = (Vec3::new(0.0, 0.0, -0.01) - cam.position).normalize();
     assert!(cam.forward.abs_diff_eq(to_origin, 1e-5));
     assert!(cam.up.y > 0.0 && cam.right.dot(cam.forward).abs() < 1e-5);
 }
