@@ -1,1 +1,363 @@
-//! Runtime relighting.
+//! PRT runtime: opens a per-pixel bake file and produces images for any setting of the
+//! editable materials, without tracing a ray (DESIGN.md 2.1, 2.3). It depends only on
+//! `prt-formats`, never on the baker.
+//!
+//! Relighting contracts each group's per-pixel transfer rows with weights built from the
+//! current slot coefficients ([`prt_formats::pixel::group_weights`]): uncompressed, one
+//! multiply-add per stored value and channel; compressed (PCA over pixels), the K components
+//! are contracted once per frame and each pixel costs K multiply-adds per channel.
+
+use std::path::Path;
+use std::time::Instant;
+
+use half::f16;
+use half::slice::HalfFloatSliceExt;
+use prt_formats::basis::BrdfBasis;
+use prt_formats::overrides::{MaterialOverride, OverrideValue};
+use prt_formats::pixel::{MaterialParams, PixelBakeMeta, group_weights, slot_coefficients};
+use prt_formats::{BakeFile, Dtype, FormatError};
+use rayon::prelude::*;
+
+#[derive(Debug, thiserror::Error)]
+pub enum RuntimeError {
+    #[error(transparent)]
+    Format(#[from] FormatError),
+    #[error("{path}: not a per-pixel bake file: {reason}")]
+    Schema { path: String, reason: String },
+    #[error("unknown material '{name}'; the bake has: {available}")]
+    UnknownMaterial { name: String, available: String },
+    #[error("material '{name}' is not editable in this bake (editable: {editable})")]
+    NotEditable { name: String, editable: String },
+    #[error("material '{name}' is {family}: it has no parameter '{param}'")]
+    WrongParam { name: String, family: String, param: String },
+    #[error("this bake file has no compressed variant (bake with a compression rank)")]
+    NoCompressed,
+}
+
+/// Which representation to relight from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Variant {
+    Full,
+    Compressed,
+}
+
+/// A relit image and what it cost.
+#[derive(Clone, Debug)]
+pub struct Frame {
+    pub width: u32,
+    pub height: u32,
+    /// Row-major, top row first, linear RGB.
+    pub pixels: Vec<[f32; 3]>,
+    pub seconds: f64,
+    /// Bytes of bake data read to make the frame.
+    pub bytes_read: u64,
+}
+
+/// An opened bake file with the current material settings.
+pub struct Relighter {
+    file: BakeFile,
+    meta: PixelBakeMeta,
+    bases: Vec<BrdfBasis>,
+    params: Vec<MaterialParams>,
+}
+
+impl Relighter {
+    /// Opens and validates a bake file (checksums verified).
+    pub fn open(path: impl AsRef<Path>) -> Result<Relighter, RuntimeError> {
+        let path = path.as_ref();
+        let file = BakeFile::open(path)?;
+        let schema = |reason: String| RuntimeError::Schema {
+            path: path.display().to_string(),
+            reason,
+        };
+        let meta: PixelBakeMeta = serde_json::from_value(file.metadata().clone())
+            .map_err(|e| schema(format!("metadata does not match the per-pixel schema: {e}")))?;
+        if meta.pixel_schema_version != prt_formats::pixel::PIXEL_SCHEMA_VERSION {
+            return Err(schema(format!(
+                "per-pixel schema version {} (this runtime reads {})",
+                meta.pixel_schema_version,
+                prt_formats::pixel::PIXEL_SCHEMA_VERSION
+            )));
+        }
+        let bases: Vec<BrdfBasis> = meta.bases.iter().map(|b| b.basis.clone()).collect();
+        for b in &bases {
+            if b.param_samples.is_empty() || b.coefficients.len() != b.param_samples.len() * b.num_bases {
+                return Err(schema(format!("basis '{}' has an inconsistent coefficient table", b.family)));
+            }
+        }
+        let nslots: usize = meta.materials.iter().map(|m| m.slots.len()).sum();
+        let (w, h) = (meta.width as usize, meta.height as usize);
+        file.tensor("emission")?.require_shape(&[h, w, 3])?;
+        for (g, gm) in meta.groups.iter().enumerate() {
+            let Some(m) = meta.materials.get(gm.material as usize) else {
+                return Err(schema(format!("group {g} names material {} which does not exist", gm.material)));
+            };
+            if m.basis.is_some_and(|b| b as usize >= bases.len()) {
+                return Err(schema(format!("material '{}' names a missing basis", m.name)));
+            }
+            if gm.active.iter().any(|&j| j as usize >= nslots) {
+                return Err(schema(format!("group {g} names a slot beyond the {nslots} slots")));
+            }
+            let expect = prt_formats::pixel::row_len(
+                m.slots.len(),
+                gm.active.len(),
+                meta.reflections as usize,
+                meta.channels as usize,
+            );
+            if expect != gm.row_len as usize {
+                return Err(schema(format!("group {g}: row length {} but the layout gives {expect}", gm.row_len)));
+            }
+            let p = gm.pixels as usize;
+            let pix = file.tensor(&format!("g{g}.pixels"))?;
+            pix.require_shape(&[p])?;
+            if pix.as_u32()?.iter().any(|&i| i as usize >= w * h) {
+                return Err(schema(format!("group {g} has a pixel index outside the image")));
+            }
+            file.tensor(&format!("g{g}.t"))?.require_shape(&[p, expect])?;
+            if let Some(k) = gm.compressed_rank {
+                let k = k as usize;
+                file.tensor(&format!("g{g}.mean"))?.require_shape(&[expect])?;
+                file.tensor(&format!("g{g}.components"))?.require_shape(&[k, expect])?;
+                file.tensor(&format!("g{g}.weights"))?.require_shape(&[p, k])?;
+            }
+        }
+        let params = meta.materials.iter().map(|m| m.params()).collect();
+        Ok(Relighter {
+            file,
+            meta,
+            bases,
+            params,
+        })
+    }
+
+    pub fn meta(&self) -> &PixelBakeMeta {
+        &self.meta
+    }
+
+    pub fn width(&self) -> u32 {
+        self.meta.width
+    }
+
+    pub fn height(&self) -> u32 {
+        self.meta.height
+    }
+
+    pub fn has_compressed(&self) -> bool {
+        !self.meta.groups.is_empty() && self.meta.groups.iter().all(|g| g.compressed_rank.is_some())
+    }
+
+    /// Current parameters of material `name`.
+    pub fn params(&self, name: &str) -> Result<MaterialParams, RuntimeError> {
+        Ok(self.params[self.material_index(name)?])
+    }
+
+    fn material_index(&self, name: &str) -> Result<usize, RuntimeError> {
+        self.meta
+            .materials
+            .iter()
+            .position(|m| m.name == name)
+            .ok_or_else(|| RuntimeError::UnknownMaterial {
+                name: name.to_string(),
+                available: self.meta.materials.iter().map(|m| m.name.as_str()).collect::<Vec<_>>().join(", "),
+            })
+    }
+
+    /// Applies one `--set MATERIAL.PARAM=VALUE` edit (values already range-checked by the
+    /// parser; shininess/alpha outside the basis' sampled range are clamped by it).
+    pub fn apply(&mut self, o: &MaterialOverride) -> Result<(), RuntimeError> {
+        let i = self.material_index(&o.material)?;
+        let m = &self.meta.materials[i];
+        if !m.editable {
+            return Err(RuntimeError::NotEditable {
+                name: m.name.clone(),
+                editable: self
+                    .meta
+                    .materials
+                    .iter()
+                    .filter(|m| m.editable)
+                    .map(|m| m.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            });
+        }
+        let wrong = |param: &str| RuntimeError::WrongParam {
+            name: m.name.clone(),
+            family: m.family.clone(),
+            param: param.to_string(),
+        };
+        let p = &mut self.params[i];
+        match o.value {
+            OverrideValue::Kd(c) => p.kd = c,
+            OverrideValue::Ks(c) if m.basis.is_some() => p.ks = c,
+            OverrideValue::Shininess(s) if m.family == "blinn-phong" => p.param = s,
+            OverrideValue::Alpha(a) if m.family == "ggx" => p.param = a,
+            OverrideValue::Ks(_) => return Err(wrong("ks")),
+            OverrideValue::Shininess(_) => return Err(wrong("shininess")),
+            OverrideValue::Alpha(_) => return Err(wrong("alpha")),
+            ref other => return Err(wrong(&other.param().to_string())),
+        }
+        Ok(())
+    }
+
+    /// RGB coefficient of every global slot for the current parameters, and whether any
+    /// parameter lay outside its basis' sampled range (and was clamped).
+    pub fn coefficients(&self) -> (Vec<[f32; 3]>, bool) {
+        let mut out = Vec::new();
+        let mut clamped = false;
+        for (m, p) in self.meta.materials.iter().zip(&self.params) {
+            let lobe = match m.basis {
+                Some(b) => {
+                    let (c, cl) = self.bases[b as usize].coefficients(p.param);
+                    clamped |= cl;
+                    c
+                }
+                None => Vec::new(),
+            };
+            out.extend(slot_coefficients(m, p, &lobe));
+        }
+        (out, clamped)
+    }
+
+    /// Relights the image for the current parameters.
+    pub fn render(&self, variant: Variant) -> Result<Frame, RuntimeError> {
+        if variant == Variant::Compressed && !self.has_compressed() {
+            return Err(RuntimeError::NoCompressed);
+        }
+        let start = Instant::now();
+        let (coeff, _) = self.coefficients();
+        let reflections = self.meta.reflections as usize;
+        let channels = self.meta.channels as usize;
+        let emission = self.file.tensor("emission")?.as_f32()?;
+        let mut pixels: Vec<[f32; 3]> = emission.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+        let mut bytes_read = (emission.len() * 4) as u64;
+        for (g, gm) in self.meta.groups.iter().enumerate() {
+            let m = &self.meta.materials[gm.material as usize];
+            let (w, _) = group_weights(gm, m, &coeff, reflections, channels, self.meta.tint);
+            let len = gm.row_len as usize;
+            let idx = self.file.tensor(&format!("g{g}.pixels"))?.as_u32()?;
+            bytes_read += (idx.len() * 4) as u64;
+            let values: Vec<[f32; 3]> = match variant {
+                Variant::Full => {
+                    let t = self.file.tensor(&format!("g{g}.t"))?;
+                    bytes_read += t.bytes().len() as u64;
+                    match t.dtype() {
+                        Dtype::F16 => contract_f16(t.as_f16()?, idx.len(), len, &w, channels, gm.scale),
+                        _ => contract_f32(t.as_f32()?, idx.len(), len, &w, channels),
+                    }
+                }
+                Variant::Compressed => {
+                    let k = gm.compressed_rank.unwrap_or(0) as usize;
+                    let mean = self.file.tensor(&format!("g{g}.mean"))?.as_f32()?;
+                    let comps = self.file.tensor(&format!("g{g}.components"))?.as_f32()?;
+                    let z = self.file.tensor(&format!("g{g}.weights"))?.as_f32()?;
+                    bytes_read += ((mean.len() + comps.len() + z.len()) * 4) as u64;
+                    contract_compressed(mean, comps, z, idx.len(), k, len, &w)
+                }
+            };
+            for (&p, v) in idx.iter().zip(values) {
+                let o = &mut pixels[p as usize];
+                o[0] += v[0];
+                o[1] += v[1];
+                o[2] += v[2];
+            }
+        }
+        Ok(Frame {
+            width: self.meta.width,
+            height: self.meta.height,
+            pixels,
+            seconds: start.elapsed().as_secs_f64(),
+            bytes_read,
+        })
+    }
+}
+
+/// Rows per parallel work item.
+const ROWS_PER_TASK: usize = 256;
+
+/// `sum_e W[c][e] x[e]` for every row. With 3 channels the tensor is RGB and channel c only
+/// meets elements e = 3i + c.
+fn dot_row(x: &[f32], w: &[f32], len: usize, channels: usize) -> [f32; 3] {
+    let (w0, w1, w2) = (&w[..len], &w[len..2 * len], &w[2 * len..3 * len]);
+    let mut a = [0.0f32; 3];
+    if channels == 1 {
+        for e in 0..len {
+            let v = x[e];
+            a[0] += w0[e] * v;
+            a[1] += w1[e] * v;
+            a[2] += w2[e] * v;
+        }
+    } else {
+        for t in (0..len).step_by(3) {
+            a[0] += w0[t] * x[t];
+            a[1] += w1[t + 1] * x[t + 1];
+            a[2] += w2[t + 2] * x[t + 2];
+        }
+    }
+    a
+}
+
+fn contract_f32(t: &[f32], pixels: usize, len: usize, w: &[f32], channels: usize) -> Vec<[f32; 3]> {
+    if len == 0 {
+        return vec![[0.0; 3]; pixels];
+    }
+    t.par_chunks(len * ROWS_PER_TASK)
+        .flat_map_iter(|chunk| chunk.chunks_exact(len).map(|x| dot_row(x, w, len, channels)))
+        .collect()
+}
+
+fn contract_f16(t: &[f16], pixels: usize, len: usize, w: &[f32], channels: usize, scale: f32) -> Vec<[f32; 3]> {
+    if len == 0 {
+        return vec![[0.0; 3]; pixels];
+    }
+    t.par_chunks(len * ROWS_PER_TASK)
+        .flat_map_iter(|chunk| {
+            let mut buf = vec![0.0f32; len];
+            chunk
+                .chunks_exact(len)
+                .map(|x| {
+                    x.convert_to_f32_slice(&mut buf);
+                    dot_row(&buf, w, len, channels).map(|v| v * scale)
+                })
+                .collect::<Vec<_>>()
+        })
+        .collect()
+}
+
+fn contract_compressed(
+    mean: &[f32],
+    comps: &[f32],
+    z: &[f32],
+    pixels: usize,
+    k: usize,
+    len: usize,
+    w: &[f32],
+) -> Vec<[f32; 3]> {
+    let dot = |x: &[f32]| -> [f32; 3] {
+        let mut a = [0.0f32; 3];
+        for e in 0..len {
+            a[0] += w[e] * x[e];
+            a[1] += w[len + e] * x[e];
+            a[2] += w[2 * len + e] * x[e];
+        }
+        a
+    };
+    let base = dot(mean);
+    let s: Vec<[f32; 3]> = (0..k).map(|r| dot(&comps[r * len..(r + 1) * len])).collect();
+    if k == 0 {
+        return vec![base; pixels];
+    }
+    z.par_chunks(k * ROWS_PER_TASK)
+        .flat_map_iter(|chunk| {
+            let s = &s;
+            chunk.chunks_exact(k).map(move |zp| {
+                let mut a = base;
+                for (zr, sr) in zp.iter().zip(s) {
+                    a[0] += zr * sr[0];
+                    a[1] += zr * sr[1];
+                    a[2] += zr * sr[2];
+                }
+                a
+            })
+        })
+        .collect()
+}

@@ -1,1 +1,170 @@
-//! Cross-crate regression tests live in `tests/tests/`.
+//! Shared fixtures of the cross-crate regression tests (`tests/tests/*.rs`): small scenes,
+//! small bases, and the bake -> file -> relight round trip.
+
+use std::path::PathBuf;
+
+use glam::Vec3;
+use prt_bake::basis::{BasisBuilder, BasisConfig};
+use prt_bake::brdf::{BrdfParams, Family};
+use prt_bake::pixel::{self, PixelBakeOptions, Precision, SlotLayout};
+use prt_bake::scene::{Environment, PunctualLight, Scene};
+use prt_bake::testing::{SceneBuilder, look_at};
+use prt_formats::basis::{AngularGrid, BrdfBasis};
+
+/// A small basis (coarse grid, few parameter samples) so tests build it in milliseconds.
+pub fn small_basis(family: Family, count: usize) -> BrdfBasis {
+    let mut cfg = BasisConfig::new(family, count).expect("basis config");
+    cfg.grid = AngularGrid {
+        n_theta_i: 10,
+        n_theta_o: 10,
+        n_phi: 16,
+    };
+    cfg.param_samples = 24;
+    BasisBuilder::new(cfg)
+        .and_then(|b| b.build(count))
+        .expect("basis build")
+        .to_persisted()
+}
+
+/// A box-like scene: a coloured floor and back wall (fixed glossy GGX), an editable
+/// Blinn-Phong sphere, an editable GGX sphere, an editable diffuse block, an area light and a
+/// point light. `light` is the colour of both lights; `env` the environment.
+pub fn test_scene(light: Vec3, env: Vec3) -> Scene {
+    let mut b = SceneBuilder::new();
+    let floor = b.material("floor", BrdfParams::diffuse(Vec3::new(0.7, 0.6, 0.5)), Vec3::ZERO, false);
+    let wall = b.material(
+        "wall",
+        BrdfParams {
+            family: Family::Ggx,
+            kd: Vec3::new(0.2, 0.4, 0.6),
+            ks: Vec3::splat(0.2),
+            param: 0.3,
+        },
+        Vec3::ZERO,
+        false,
+    );
+    let bp = b.material(
+        "shiny",
+        BrdfParams {
+            family: Family::BlinnPhong,
+            kd: Vec3::new(0.5, 0.2, 0.2),
+            ks: Vec3::splat(0.4),
+            param: 40.0,
+        },
+        Vec3::ZERO,
+        true,
+    );
+    let gg = b.material(
+        "metal",
+        BrdfParams {
+            family: Family::Ggx,
+            kd: Vec3::splat(0.1),
+            ks: Vec3::new(0.8, 0.7, 0.3),
+            param: 0.2,
+        },
+        Vec3::ZERO,
+        true,
+    );
+    let block = b.material("block", BrdfParams::diffuse(Vec3::splat(0.6)), Vec3::ZERO, true);
+    let lamp = b.material("lamp", BrdfParams::diffuse(Vec3::ZERO), light * 8.0, false);
+    b.quad(
+        [
+            Vec3::new(-2.0, 0.0, -2.0),
+            Vec3::new(-2.0, 0.0, 2.0),
+            Vec3::new(2.0, 0.0, 2.0),
+            Vec3::new(2.0, 0.0, -2.0),
+        ],
+        floor,
+    );
+    b.quad(
+        [
+            Vec3::new(-2.0, 0.0, -1.5),
+            Vec3::new(2.0, 0.0, -1.5),
+            Vec3::new(2.0, 2.5, -1.5),
+            Vec3::new(-2.0, 2.5, -1.5),
+        ],
+        wall,
+    );
+    b.sphere(Vec3::new(-0.6, 0.5, -0.4), 0.5, 2, bp);
+    b.sphere(Vec3::new(0.6, 0.4, 0.0), 0.4, 2, gg);
+    b.quad(
+        [
+            Vec3::new(0.9, 0.0, -1.2),
+            Vec3::new(1.6, 0.0, -1.2),
+            Vec3::new(1.6, 1.2, -1.2),
+            Vec3::new(0.9, 1.2, -1.2),
+        ],
+        block,
+    );
+    b.quad(
+        [
+            Vec3::new(-0.4, 2.2, -0.6),
+            Vec3::new(0.4, 2.2, -0.6),
+            Vec3::new(0.4, 2.2, 0.2),
+            Vec3::new(-0.4, 2.2, 0.2),
+        ],
+        lamp,
+    );
+    b.light(PunctualLight::Point {
+        position: Vec3::new(1.2, 1.8, 1.0),
+        intensity: light * 2.0,
+    });
+    b.environment(Environment::Constant(env));
+    b.camera(look_at(Vec3::new(0.0, 1.2, 3.2), Vec3::new(0.0, 0.6, -0.5), Vec3::Y, 50f32.to_radians()));
+    b.build()
+}
+
+/// Bases for the families `scene`'s editable materials use.
+pub fn bases_for(scene: &Scene, count: usize) -> Vec<BrdfBasis> {
+    let mut fams: Vec<Family> = Vec::new();
+    for m in &scene.materials {
+        if m.editable && m.brdf.family != Family::Diffuse && !fams.contains(&m.brdf.family) {
+            fams.push(m.brdf.family);
+        }
+    }
+    fams.into_iter().map(|f| small_basis(f, count)).collect()
+}
+
+/// Options of a small bake.
+pub fn small_options(w: u32, h: u32, spp: u32, reflections: u32, precision: Precision) -> PixelBakeOptions {
+    PixelBakeOptions {
+        width: w,
+        height: h,
+        spp,
+        reflections,
+        seed: 11,
+        precision,
+        max_memory: None,
+        compress_rank: None,
+    }
+}
+
+/// A unique temporary path for a test artefact.
+pub fn temp_path(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("prt-tests-{}", std::process::id()));
+    let _ = std::fs::create_dir_all(&dir);
+    dir.join(name)
+}
+
+/// Bakes and writes a bake file; returns the layout used and the path.
+pub fn bake_to_file(scene: &Scene, bases: &[BrdfBasis], opts: &PixelBakeOptions, name: &str) -> (SlotLayout, PathBuf) {
+    let layout = SlotLayout::new(scene, bases).expect("layout");
+    let bake = pixel::bake(scene, &layout, opts, None).expect("bake");
+    let path = temp_path(name);
+    pixel::write_bake_file(&bake, &path, opts.precision).expect("write bake file");
+    (layout, path)
+}
+
+/// Relative L2 error ||a - b|| / ||b|| over all channels.
+pub fn relative_l2(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
+    let mut num = 0.0f64;
+    let mut den = 0.0f64;
+    for (x, y) in a.iter().zip(b) {
+        for c in 0..3 {
+            let d = (x[c] - y[c]) as f64;
+            num += d * d;
+            den += (y[c] as f64).powi(2);
+        }
+    }
+    (num / den.max(1e-300)).sqrt()
+}

@@ -1,1 +1,135 @@
-fn main() {}
+//! `reference`: renders a bake config's camera view with the true BRDFs (path tracing, exact
+//! reflection count), writing a linear EXR and a tone-mapped PNG.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::{Result, bail};
+use clap::Parser;
+use prt_bake::accel::Accel;
+use prt_bake::integrator::Integrator;
+use prt_bake::lights::LightSet;
+use prt_bake::reference::{TrueBrdfModel, render, unit_coefficients};
+use prt_bake::run::{apply_override, load, progress_bar};
+use prt_formats::MaterialOverride;
+
+#[derive(Parser, Debug)]
+#[command(version, about = "Reference path tracer: the ground truth a bake is checked against")]
+struct Args {
+    /// The bake config (TOML) naming the scene.
+    config: PathBuf,
+    /// Samples per pixel (default: the config's spp).
+    #[arg(long)]
+    spp: Option<u32>,
+    #[arg(long)]
+    width: Option<u32>,
+    #[arg(long)]
+    height: Option<u32>,
+    /// Output image (.exr or .png); the other format is written beside it. Default:
+    /// out/<config name>-reference.exr next to the config.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Material override, e.g. `--set bunny.kd=0.8,0.2,0.2 --set bunny.shininess=50`.
+    #[arg(long = "set", value_name = "MATERIAL.PARAM=VALUE")]
+    set: Vec<MaterialOverride>,
+    /// Random seed (default: the config's).
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Exposure multiplier for the PNG.
+    #[arg(long, default_value_t = 1.0)]
+    exposure: f32,
+    /// Print one JSON object with the figures of the run.
+    #[arg(long)]
+    json: bool,
+}
+
+fn main() -> ExitCode {
+    match run(Args::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(args: Args) -> Result<()> {
+    let (config, mut scene) = load(&args.config)?;
+    for o in &args.set {
+        apply_override(&mut scene, o)?;
+    }
+    let width = args.width.unwrap_or(config.width);
+    let height = args.height.unwrap_or(config.height);
+    let spp = args.spp.unwrap_or(config.spp);
+    if width == 0 || height == 0 || spp == 0 {
+        bail!("--width, --height and --spp must be at least 1");
+    }
+    let accel = Accel::build(&scene);
+    let lights = LightSet::new(&scene);
+    let integ = Integrator::new(&scene, &accel, &lights, config.reflections as usize, width, height);
+    let model = TrueBrdfModel::new(&scene);
+    let bar = (!args.json).then(|| progress_bar(height as u64, "rendering"));
+    let r = render(
+        &integ,
+        &model,
+        &unit_coefficients(scene.materials.len()),
+        spp,
+        args.seed.unwrap_or(config.seed),
+        bar.as_ref(),
+    );
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    let out = args.out.unwrap_or_else(|| {
+        let stem = config.config_path.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+        let folder_name = config
+            .folder()
+            .file_name()
+            .map_or(stem.clone(), |s| s.to_string_lossy().into_owned());
+        config.folder().join("out").join(format!("{folder_name}-reference.exr"))
+    });
+    let rgb: Vec<[f32; 3]> = r.pixels.iter().map(|p| p.to_array()).collect();
+    let (w, h) = (width as usize, height as usize);
+    let exr = out.with_extension("exr");
+    let png = out.with_extension("png");
+    prt_formats::write_exr(&exr, w, h, &rgb)?;
+    prt_formats::write_png(&png, w, h, &rgb, args.exposure)?;
+    let mean = r.mean();
+    if args.json {
+        let materials: serde_json::Map<String, serde_json::Value> = scene
+            .materials
+            .iter()
+            .zip(&r.material_means)
+            .filter_map(|(m, (v, n))| {
+                v.map(|v| (m.name.clone(), serde_json::json!({"mean_radiance": v.to_array(), "samples": n})))
+            })
+            .collect();
+        let json = serde_json::json!({
+            "config": config.config_path,
+            "exr": exr,
+            "png": png,
+            "width": width,
+            "height": height,
+            "spp": spp,
+            "reflections": config.reflections,
+            "samples": width as u64 * height as u64 * spp as u64,
+            "seconds": r.seconds,
+            "rays": r.rays,
+            "rays_per_second": r.rays as f64 / r.seconds.max(1e-9),
+            "threads": rayon::current_num_threads(),
+            "mean_radiance": mean.to_array(),
+            "material_mean_radiance": materials,
+            "background_mean_radiance": r.background_mean.0.map(|v| v.to_array()),
+        });
+        println!("{json}");
+    } else {
+        eprintln!(
+            "rendered {width}x{height} at {spp} spp in {:.2} s ({:.2} Mrays/s); wrote {} and {}",
+            r.seconds,
+            r.rays as f64 / r.seconds.max(1e-9) / 1e6,
+            exr.display(),
+            png.display()
+        );
+    }
+    Ok(())
+}

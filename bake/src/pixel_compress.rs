@@ -1,0 +1,81 @@
+//! Low-rank compression of a group's per-pixel transfer rows: PCA over pixels. Each row x_p
+//! (length E) is approximated as mean + sum_r w_p[r] U_r, so the runtime contracts the K
+//! components with the coefficients once per frame and then needs only K multiply-adds per
+//! pixel and channel instead of E.
+
+use faer::Mat;
+use rayon::prelude::*;
+
+use crate::basis::linalg::{fix_sign, matmul_tn, sym_eig_desc};
+use crate::pixel::Compressed;
+
+/// Rows per covariance chunk; chunks are reduced in a fixed order, so the result does not
+/// depend on the thread count.
+const CHUNK: usize = 4096;
+
+/// PCA of `n` rows of length `len` (row-major in `rows`), keeping `k` components (at most
+/// `min(n, len)`; fewer when the data has lower rank).
+pub fn pca_rows(rows: &[f32], n: usize, len: usize, k: usize) -> Compressed {
+    let mut mean = vec![0.0f64; len];
+    for r in rows.chunks_exact(len) {
+        for (m, v) in mean.iter_mut().zip(r) {
+            *m += *v as f64;
+        }
+    }
+    let inv_n = 1.0 / n.max(1) as f64;
+    mean.iter_mut().for_each(|m| *m *= inv_n);
+
+    let partials: Vec<Mat<f64>> = rows
+        .par_chunks(CHUNK * len)
+        .map(|chunk| {
+            let m = chunk.len() / len;
+            let x = Mat::from_fn(m, len, |i, j| chunk[i * len + j] as f64 - mean[j]);
+            matmul_tn(x.as_ref(), x.as_ref())
+        })
+        .collect();
+    let mut cov = Mat::<f64>::zeros(len, len);
+    for p in &partials {
+        cov += p;
+    }
+    let (vals, vecs) = match sym_eig_desc(cov.as_ref()) {
+        Ok(x) => x,
+        Err(_) => (Vec::new(), Mat::zeros(len, 0)),
+    };
+    // Keep components with non-negligible variance only (rank-deficient data).
+    let top = vals.first().copied().unwrap_or(0.0).max(0.0);
+    let rank = vals
+        .iter()
+        .take(k.min(len).min(n))
+        .take_while(|&&v| v > top * 1e-12 && v > 0.0)
+        .count();
+    let mut components = vec![0.0f32; rank * len];
+    let mut comp64 = vec![vec![0.0f64; len]; rank];
+    for (r, c) in comp64.iter_mut().enumerate() {
+        for (j, v) in c.iter_mut().enumerate() {
+            *v = vecs[(j, r)];
+        }
+        fix_sign(c);
+        for j in 0..len {
+            components[r * len + j] = c[j] as f32;
+        }
+    }
+    let mean_ref = &mean;
+    let weights: Vec<f32> = rows
+        .par_chunks(len)
+        .flat_map_iter(|row| {
+            comp64.iter().map(move |c| {
+                row.iter()
+                    .zip(c)
+                    .zip(mean_ref)
+                    .map(|((x, u), m)| (*x as f64 - m) * u)
+                    .sum::<f64>() as f32
+            })
+        })
+        .collect();
+    Compressed {
+        mean: mean.iter().map(|&m| m as f32).collect(),
+        components,
+        weights,
+        rank,
+    }
+}

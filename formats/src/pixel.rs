@@ -1,0 +1,323 @@
+//! The per-pixel bake schema (docs/format.md, "Bake schema"): what the baker writes and the
+//! runtime reads, and the one place that turns material parameters into slot coefficients.
+//!
+//! A pixel's radiance is a polynomial in the slot coefficients of the materials along its
+//! paths (DESIGN.md 2.1). Every material has a list of *slots*, functions its BRDF is a
+//! combination of:
+//!
+//! - [`SlotKind::Kd`]: the Lambert lobe 1/pi, coefficient Kd (the diffuse texture multiplies
+//!   it: per pixel by the runtime at the visible point, baked in at later bounces);
+//! - [`SlotKind::Basis`]: basis BRDF b of the material's family (editable materials),
+//!   coefficient Ks a_b(param), plus Kd for b = 0 when the material has no separate Kd slot;
+//! - [`SlotKind::Lobe`]: the fixed specular lobe of a non-editable glossy material,
+//!   coefficient Ks.
+//!
+//! Slots of all materials are numbered globally (`MaterialMeta::slot_offset`). For each
+//! material R0 seen by the camera there is a *group*: its pixels and, per pixel, the tensors
+//! T0[b0], T1[b0, j1], T2[b0, j1, j2] over R0's slots b0 and the group's *active* global slots
+//! j (slots that ever carry light into the group), each with `channels` values (1 = gray).
+//! The radiance of a pixel is `emission + sum_g sum_e W_g[e] x_g[e]` where `x_g` is the
+//! pixel's flattened tensor and `W_g` the products of coefficients ([`group_weights`]).
+
+use serde::{Deserialize, Serialize};
+
+use crate::basis::BrdfBasis;
+
+/// Version of the per-pixel schema (inside the container's own schema version).
+pub const PIXEL_SCHEMA_VERSION: u32 = 1;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case", tag = "kind", content = "index")]
+pub enum SlotKind {
+    Kd,
+    Basis(u32),
+    Lobe,
+}
+
+/// One material of the scene as the bake file records it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MaterialMeta {
+    pub name: String,
+    pub editable: bool,
+    /// "diffuse", "blinn-phong" or "ggx".
+    pub family: String,
+    /// The parameters the scene was baked with (the starting values of editable materials;
+    /// the fixed values of the others).
+    pub kd: [f32; 3],
+    pub ks: [f32; 3],
+    pub param: f32,
+    /// Whether a base-colour texture modulates Kd.
+    pub textured: bool,
+    pub slots: Vec<SlotKind>,
+    /// Global index of this material's first slot.
+    pub slot_offset: u32,
+    /// Index into `PixelBakeMeta::bases` for editable glossy materials.
+    pub basis: Option<u32>,
+}
+
+/// A family's basis as stored: everything but its large tables, which are the tensor
+/// `basis.<index>.tables` (the runtime needs only the coefficient table).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BasisMeta {
+    /// The basis with `tables` emptied.
+    pub basis: BrdfBasis,
+}
+
+/// The pixels of the image where material `material` is visible, and their tensors.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct GroupMeta {
+    pub material: u32,
+    /// Number of pixels in the group (rows of its tensors).
+    pub pixels: u32,
+    /// Number of slots of the material (b0).
+    pub slots: u32,
+    /// Global slots j that carry light into this group, ascending.
+    pub active: Vec<u32>,
+    /// Values per pixel: slots * (1 + J + J^2 ...) * channels, J = active.len(), up to
+    /// `reflections - 1` factors of J.
+    pub row_len: u32,
+    /// Whether the tensor `g<i>.texture` holds the diffuse texture per pixel.
+    pub textured: bool,
+    /// Rank of the low-rank (PCA over pixels) variant, when the file has one.
+    pub compressed_rank: Option<u32>,
+    /// Stored value = true value / scale (f16 storage keeps the largest magnitude at 2^14 so
+    /// sun-like dynamic range cannot overflow); 1 for f32 storage.
+    pub scale: f32,
+}
+
+/// Everything the runtime needs besides the tensors.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PixelBakeMeta {
+    pub pixel_schema_version: u32,
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub reflections: u32,
+    pub seed: u64,
+    /// 1 (gray tensors, colours all in coefficients) or 3 (RGB tensors).
+    pub channels: u32,
+    /// The lights' common colour, divided out of gray tensors and multiplied back in by
+    /// [`group_weights`] (white for RGB tensors).
+    pub tint: [f32; 3],
+    /// "f32" or "f16": the storage type of the transfer tensors.
+    pub precision: String,
+    pub materials: Vec<MaterialMeta>,
+    pub bases: Vec<BasisMeta>,
+    pub groups: Vec<GroupMeta>,
+    pub camera: CameraMeta,
+    /// Free-form figures of the bake (time, rays, allocation report).
+    pub stats: serde_json::Value,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CameraMeta {
+    pub position: [f32; 3],
+    pub forward: [f32; 3],
+    pub up: [f32; 3],
+    pub yfov: f32,
+}
+
+/// The parameters of one material as the user sets them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MaterialParams {
+    pub kd: [f32; 3],
+    pub ks: [f32; 3],
+    pub param: f32,
+}
+
+impl MaterialMeta {
+    pub fn params(&self) -> MaterialParams {
+        MaterialParams {
+            kd: self.kd,
+            ks: self.ks,
+            param: self.param,
+        }
+    }
+
+    /// Whether the material has its own Kd slot (otherwise Kd folds into basis 0).
+    pub fn has_kd_slot(&self) -> bool {
+        self.slots.contains(&SlotKind::Kd)
+    }
+}
+
+/// The RGB coefficient of every slot of `material` for parameters `p`. `lobe` holds the
+/// family's lobe coefficients a_b(param) for editable glossy materials (from
+/// [`BrdfBasis::coefficients`]). Returns one RGB triple per slot.
+pub fn slot_coefficients(material: &MaterialMeta, p: &MaterialParams, lobe: &[f32]) -> Vec<[f32; 3]> {
+    let has_kd = material.has_kd_slot();
+    material
+        .slots
+        .iter()
+        .map(|s| match *s {
+            SlotKind::Kd => p.kd,
+            SlotKind::Lobe => p.ks,
+            SlotKind::Basis(b) => {
+                let a = lobe.get(b as usize).copied().unwrap_or(0.0);
+                let d = if b == 0 && !has_kd { p.kd } else { [0.0; 3] };
+                [d[0] + p.ks[0] * a, d[1] + p.ks[1] * a, d[2] + p.ks[2] * a]
+            }
+        })
+        .collect()
+}
+
+/// Number of values per pixel of a group.
+pub fn row_len(slots: usize, active: usize, reflections: usize, channels: usize) -> usize {
+    let mut per_b0 = 0usize;
+    let mut pow = 1usize;
+    for _ in 0..reflections {
+        per_b0 += pow;
+        pow = pow.saturating_mul(active);
+    }
+    slots.saturating_mul(per_b0).saturating_mul(channels)
+}
+
+/// Contraction weights of a group for the current coefficients: for each output channel c and
+/// each element e of the pixel row, `W[c][e]`, such that the radiance is
+/// `sum_e W[c][e] x[e]` plus, for textured groups, `tex_c * sum_e Wtex[c][e] x[e]`.
+/// Returns (W, Wtex), each `3 * row_len` values (channel-major). `coeff` holds the RGB
+/// coefficient of every global slot.
+pub fn group_weights(
+    group: &GroupMeta,
+    material: &MaterialMeta,
+    coeff: &[[f32; 3]],
+    reflections: usize,
+    channels: usize,
+    tint: [f32; 3],
+) -> (Vec<f32>, Vec<f32>) {
+    let n0 = material.slots.len();
+    let act: Vec<[f32; 3]> = group
+        .active
+        .iter()
+        .map(|&j| coeff.get(j as usize).copied().unwrap_or([0.0; 3]))
+        .collect();
+    let jn = act.len();
+    let len = row_len(n0, jn, reflections, channels);
+    let mut w = vec![0.0f32; 3 * len];
+    let mut wt = vec![0.0f32; 3 * len];
+    let base = material.slot_offset as usize;
+    // Enumerate elements in storage order: depth blocks, then b0, then j1.. jk, then channel.
+    let mut e = 0usize;
+    let mut pow = 1usize;
+    for depth in 0..reflections {
+        for (b0, slot) in material.slots.iter().enumerate() {
+            let c0 = coeff.get(base + b0).copied().unwrap_or([0.0; 3]);
+            let textured = material.textured && *slot == SlotKind::Kd;
+            for idx in 0..pow {
+                // Product of the tint and the coefficients of the slots b0, j1..jdepth.
+                let mut prod = [c0[0] * tint[0], c0[1] * tint[1], c0[2] * tint[2]];
+                let mut rest = idx;
+                for _ in 0..depth {
+                    let j = rest % jn.max(1);
+                    rest /= jn.max(1);
+                    for ch in 0..3 {
+                        prod[ch] *= act[j][ch];
+                    }
+                }
+                let target = if textured { &mut wt } else { &mut w };
+                if channels == 1 {
+                    for ch in 0..3 {
+                        target[ch * len + e] = prod[ch];
+                    }
+                    e += 1;
+                } else {
+                    for ch in 0..3 {
+                        target[ch * len + e + ch] = prod[ch];
+                    }
+                    e += 3;
+                }
+            }
+        }
+        pow = pow.saturating_mul(jn);
+    }
+    debug_assert_eq!(e, len);
+    (w, wt)
+}
+
+/// Index of a T_k element within a group row: depth k, slot b0, active indices js (length k,
+/// j1 first), channel ch. The storage order is the one [`group_weights`] enumerates: depth
+/// blocks; within a block b0, then the active indices with j1 varying *fastest*, then channel.
+pub fn element_index(n0: usize, jn: usize, channels: usize, b0: usize, js: &[usize], ch: usize) -> usize {
+    let mut off = 0usize;
+    let mut pow = 1usize;
+    for _ in 0..js.len() {
+        off += n0 * pow;
+        pow *= jn;
+    }
+    let mut idx = 0usize;
+    let mut mul = 1usize;
+    for &j in js {
+        idx += j * mul;
+        mul *= jn;
+    }
+    (off + b0 * pow + idx) * channels + ch
+}
+
+impl PixelBakeMeta {
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::to_value(self).unwrap_or(serde_json::Value::Null)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn material(slots: Vec<SlotKind>, textured: bool) -> MaterialMeta {
+        MaterialMeta {
+            name: "m".into(),
+            editable: true,
+            family: "blinn-phong".into(),
+            kd: [0.5; 3],
+            ks: [0.2; 3],
+            param: 10.0,
+            textured,
+            slots,
+            slot_offset: 0,
+            basis: Some(0),
+        }
+    }
+
+    #[test]
+    fn coefficients_fold_kd_into_basis_zero_without_kd_slot() {
+        let m = material(vec![SlotKind::Basis(0), SlotKind::Basis(1)], false);
+        let p = MaterialParams {
+            kd: [0.5, 0.4, 0.3],
+            ks: [1.0, 2.0, 3.0],
+            param: 5.0,
+        };
+        let close = |a: [f32; 3], b: [f32; 3]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-6);
+        let c = slot_coefficients(&m, &p, &[0.1, 0.2]);
+        assert!(close(c[0], [0.6, 0.6, 0.6]), "{:?}", c[0]);
+        assert!(close(c[1], [0.2, 0.4, 0.6]), "{:?}", c[1]);
+        let mt = material(vec![SlotKind::Kd, SlotKind::Basis(0)], true);
+        let c = slot_coefficients(&mt, &p, &[0.1]);
+        assert_eq!(c[0], p.kd);
+        assert!(close(c[1], [0.1, 0.2, 0.3]), "{:?}", c[1]);
+    }
+
+    #[test]
+    fn weights_enumerate_elements_in_storage_order() {
+        let m = material(vec![SlotKind::Kd, SlotKind::Basis(0)], false);
+        let g = GroupMeta {
+            material: 0,
+            pixels: 1,
+            slots: 2,
+            active: vec![0, 1],
+            row_len: 0,
+            textured: false,
+            compressed_rank: None,
+            scale: 1.0,
+        };
+        let coeff = [[2.0, 2.0, 2.0], [3.0, 5.0, 7.0]];
+        for channels in [1usize, 3] {
+            let (w, _) = group_weights(&g, &m, &coeff, 3, channels, [1.0; 3]);
+            let len = row_len(2, 2, 3, channels);
+            assert_eq!(w.len(), 3 * len);
+            // T2[b0=1, j1=0, j2=1], blue channel: c[1] * c[0] * c[1].
+            let e = element_index(2, 2, channels, 1, &[0, 1], if channels == 3 { 2 } else { 0 });
+            assert_eq!(w[2 * len + e], 7.0 * 2.0 * 7.0);
+            // T0[b0=0], red.
+            assert_eq!(w[element_index(2, 2, channels, 0, &[], 0)], 2.0);
+        }
+    }
+}
