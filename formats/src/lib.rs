@@ -9,6 +9,7 @@ pub mod basis;
 pub mod container;
 pub mod image_io;
 pub mod overrides;
+pub mod pixel;
 
 pub use container::{
     BakeFile, BakeWriter, Dtype, Element, FormatError, TensorView, FORMAT_NAME, SCHEMA_VERSION,
