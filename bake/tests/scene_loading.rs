@@ -1146,3 +1146,62 @@ fn missing_scene_file_is_an_io_error() {
         other => panic!("{:?}", other.map(|_| ())),
     }
 }
+
+#[test]
+fn interleaved_and_sparse_accessors() {
+    let dir = TempDir::new("interleaved");
+    let mut doc = Doc::new();
+    // Positions and normals interleaved in one view (stride 24), and a sparse accessor that
+    // moves vertex 2 of the positions from (0, 1, 0) to (0, 2, 0).
+    let mut inter = Vec::new();
+    for k in 0..3 {
+        for v in [TRI[3 * k], TRI[3 * k + 1], TRI[3 * k + 2], 0.0, 0.0, 1.0] {
+            inter.extend_from_slice(&f32::to_le_bytes(v));
+        }
+    }
+    let view = doc.view(&inter);
+    doc.json["bufferViews"][view]["byteStride"] = json!(24);
+    let sparse_idx = doc.view(&[2u8]);
+    let sparse_val = doc.view(&[0.0f32, 2.0, 0.0].map(f32::to_le_bytes).concat());
+    let pos = doc.push(
+        "accessors",
+        json!({"bufferView": view, "componentType": 5126, "count": 3, "type": "VEC3",
+               "sparse": {"count": 1,
+                          "indices": {"bufferView": sparse_idx, "componentType": 5121},
+                          "values": {"bufferView": sparse_val}}}),
+    );
+    let nor = doc.push(
+        "accessors",
+        json!({"bufferView": view, "byteOffset": 12, "componentType": 5126, "count": 3,
+               "type": "VEC3"}),
+    );
+    let mesh = doc.push(
+        "meshes",
+        json!({"primitives": [{"attributes": {"POSITION": pos, "NORMAL": nor}}]}),
+    );
+    let node = doc.push("nodes", json!({"mesh": mesh}));
+    doc.json["scenes"][0]["nodes"] = json!([0, node]);
+    doc.write_embedded(&dir);
+    let (scene, warnings) = load_with_warnings(&dir.config("")).unwrap_or_else(|e| panic!("{e}"));
+    assert!(warnings.is_empty(), "{warnings:?}");
+    assert_eq!(
+        scene.positions,
+        [Vec3::ZERO, Vec3::X, Vec3::new(0.0, 2.0, 0.0)]
+    );
+    assert!(scene.normals.iter().all(|n| *n == Vec3::Z));
+}
+
+/// The example in docs/config.md must stay a valid config.
+#[test]
+fn documented_example_config_parses() {
+    let doc =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/config.md"))
+            .unwrap();
+    let start = doc.find("```toml\n").expect("a toml block") + "```toml\n".len();
+    let end = start + doc[start..].find("```").unwrap();
+    let c = BakeConfig::parse(&doc[start..end], scenes_dir().join("cornell/bake.toml"))
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(c.materials.len(), 2);
+    // And it fits the scene it claims to be for.
+    load_with_warnings(&c).unwrap_or_else(|e| panic!("{e}"));
+}
