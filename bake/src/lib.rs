@@ -10,3 +10,5 @@ pub mod lights;
 pub mod sampling;
 pub mod reference;
 pub mod testing;
+pub mod basis;
+pub mod plot;

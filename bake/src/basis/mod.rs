@@ -1,0 +1,241 @@
+//! BRDF bases for editable materials (DESIGN.md 2.2, thesis 4.1.2 and 5.2.2/5.3.1; the method
+//! and its measurements are in docs/brdf-basis.md).
+//!
+//! - [`build_basis`]: PCA basis of a family (`blinn-phong`, `ggx`), persisted as
+//!   [`prt_formats::basis::BrdfBasis`] (the runtime side lives there).
+//! - [`report`]: error tables for `N_b = 2..12` against the thesis' method.
+//! - [`tucker`]: the 3-tensor `F(h, wo, wi)` and its Tucker decomposition with the specular
+//!   split.
+//! - [`cli`]: `bake basis ...`.
+
+pub mod cli;
+pub mod docgen;
+pub mod grid;
+pub mod linalg;
+pub mod pca;
+pub mod report;
+pub mod tucker;
+
+use crate::brdf::Family;
+use faer::Mat;
+use pca::{PcaBuilder, PcaModel, PcaOptions, SampleDensity};
+use prt_formats::basis::{AngularGrid, BrdfBasis, ParamWarp, BASIS_SCHEMA_VERSION};
+use std::f64::consts::FRAC_1_PI;
+
+/// A family's parameter space: which lobe, over what range, interpolated in what warp.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FamilySpec {
+    pub family: Family,
+    /// Sampled `[min, max]` of the lobe parameter.
+    pub range: (f64, f64),
+    pub warp: ParamWarp,
+}
+
+impl FamilySpec {
+    /// Defaults: Blinn-Phong s in [1, 200] (thesis), warp ln(s + 1); GGX alpha in [0.02, 1],
+    /// warp ln(alpha).
+    pub fn default_for(family: Family) -> Result<FamilySpec, String> {
+        match family {
+            Family::BlinnPhong => Ok(FamilySpec {
+                family,
+                range: (1.0, 200.0),
+                warp: ParamWarp::Log { offset: 1.0 },
+            }),
+            Family::Ggx => Ok(FamilySpec {
+                family,
+                range: (0.02, 1.0),
+                warp: ParamWarp::Log { offset: 0.0 },
+            }),
+            Family::Diffuse => Err("the diffuse family needs no basis: it is basis 0 alone".into()),
+        }
+    }
+
+    /// Same family and warp over another range; checks that the range is usable.
+    pub fn with_range(mut self, lo: f64, hi: f64) -> Result<FamilySpec, String> {
+        if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+            return Err(format!("invalid parameter range [{lo}, {hi}]"));
+        }
+        let min_ok = match self.family {
+            Family::BlinnPhong => lo >= 0.0,
+            Family::Ggx => lo > 0.0,
+            Family::Diffuse => false,
+        };
+        if !min_ok {
+            return Err(format!(
+                "parameter range [{lo}, {hi}] is outside the {} family's domain",
+                self.family.name()
+            ));
+        }
+        self.range = (lo, hi);
+        Ok(self)
+    }
+}
+
+/// Everything that determines a basis.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BasisConfig {
+    pub spec: FamilySpec,
+    pub grid: AngularGrid,
+    /// Lobes sampled (uniformly in the warped parameter) to build the basis; also the
+    /// coefficient table's resolution.
+    pub param_samples: usize,
+    /// `N_b`, Lambert basis included.
+    pub num_bases: usize,
+    pub options: PcaOptions,
+}
+
+impl BasisConfig {
+    /// Our default configuration for a family: thesis grid 30x30x60, 256 parameter samples.
+    pub fn new(family: Family, num_bases: usize) -> Result<BasisConfig, String> {
+        Ok(BasisConfig {
+            spec: FamilySpec::default_for(family)?,
+            grid: AngularGrid::THESIS,
+            param_samples: 256,
+            num_bases,
+            options: PcaOptions::ours(),
+        })
+    }
+
+    fn check(&self) -> Result<(), String> {
+        self.grid.validate().map_err(|e| e.to_string())?;
+        if self.num_bases == 0 {
+            return Err("the number of bases must be at least 1".into());
+        }
+        if self.param_samples < 2 {
+            return Err("need at least 2 parameter samples".into());
+        }
+        FamilySpec::with_range(self.spec, self.spec.range.0, self.spec.range.1).map(|_| ())
+    }
+}
+
+/// Prior weight of each build sample (placed uniformly in the warped parameter `u`): 1 for
+/// [`SampleDensity::Warped`]; `dp/du` times the trapezoid width for [`SampleDensity::Param`].
+pub fn sample_prior(spec: &FamilySpec, params: &[f64], density: SampleDensity) -> Vec<f64> {
+    let n = params.len();
+    match density {
+        SampleDensity::Warped => vec![1.0; n],
+        SampleDensity::Param => params
+            .iter()
+            .enumerate()
+            .map(|(j, &p)| {
+                let dpdu = match spec.warp {
+                    ParamWarp::Linear => 1.0,
+                    ParamWarp::Log { offset } => p + offset as f64,
+                };
+                let end = if n > 1 && (j == 0 || j == n - 1) { 0.5 } else { 1.0 };
+                dpdu * end
+            })
+            .collect(),
+    }
+}
+
+/// Tabulated build lobes plus the reusable PCA state, so bases of several sizes can be built
+/// from one tabulation.
+pub struct BasisBuilder {
+    pub config: BasisConfig,
+    pub params: Vec<f64>,
+    pub lobes: Mat<f64>,
+    pub pca: PcaBuilder,
+}
+
+impl BasisBuilder {
+    pub fn new(config: BasisConfig) -> Result<BasisBuilder, String> {
+        config.check()?;
+        let params = grid::param_samples(config.spec.range, config.spec.warp, config.param_samples);
+        let lobes = grid::tabulate(config.spec.family, &config.grid, &params);
+        let prior = sample_prior(&config.spec, &params, config.options.density);
+        let pca = PcaBuilder::with_prior(lobes.as_ref(), config.grid, config.options.clone(), &prior)?;
+        Ok(BasisBuilder {
+            config,
+            params,
+            lobes,
+            pca,
+        })
+    }
+
+    /// Builds the basis with `num_bases` bases (Lambert included).
+    pub fn build(&self, num_bases: usize) -> Result<BuiltBasis, String> {
+        let model = self.pca.build(num_bases)?;
+        let coeffs: Vec<Vec<f64>> = (0..self.params.len())
+            .map(|j| model.project(self.lobes.col_as_slice(j)))
+            .collect();
+        Ok(BuiltBasis {
+            spec: self.config.spec,
+            params: self.params.clone(),
+            coeffs,
+            model,
+        })
+    }
+}
+
+/// A basis in f64 with its coefficient table.
+#[derive(Clone, Debug)]
+pub struct BuiltBasis {
+    pub spec: FamilySpec,
+    pub params: Vec<f64>,
+    /// Per parameter sample: `[a_0, a_1, ..]`.
+    pub coeffs: Vec<Vec<f64>>,
+    pub model: PcaModel,
+}
+
+impl BuiltBasis {
+    pub fn num_bases(&self) -> usize {
+        self.model.num_bases()
+    }
+
+    /// The persisted form (f32 tables, basis index fastest; basis 0 = 1/pi).
+    pub fn to_persisted(&self) -> BrdfBasis {
+        let nb = self.num_bases();
+        let g = self.model.grid;
+        let mut tables = Vec::with_capacity(g.len() * nb);
+        for n in 0..g.len() {
+            tables.push(FRAC_1_PI as f32);
+            for b in &self.model.bases {
+                tables.push(b[n] as f32);
+            }
+        }
+        let o = &self.model.options;
+        BrdfBasis {
+            version: BASIS_SCHEMA_VERSION,
+            family: self.spec.family.name().to_string(),
+            method: format!(
+                "pca weighting={:?} normalize={} project_diffuse={} minimax_iters={} samples={}",
+                o.weighting,
+                o.normalize,
+                o.project_diffuse,
+                o.minimax_iters,
+                self.params.len()
+            ),
+            param_range: [self.spec.range.0 as f32, self.spec.range.1 as f32],
+            param_warp: self.spec.warp,
+            param_samples: self.params.iter().map(|&p| p as f32).collect(),
+            grid: g,
+            num_bases: nb,
+            tables,
+            coefficients: self
+                .coeffs
+                .iter()
+                .flat_map(|c| c.iter().map(|&x| x as f32))
+                .collect(),
+        }
+    }
+}
+
+/// Builds a family's basis (see [`BasisConfig::new`] for the defaults).
+pub fn build_basis(config: BasisConfig) -> Result<BuiltBasis, String> {
+    let nb = config.num_bases;
+    BasisBuilder::new(config)?.build(nb)
+}
+
+/// Coefficients of `basis` for lobe parameter `param`, warning on stderr when it had to be
+/// clamped to the sampled range.
+pub fn coefficients_or_warn(basis: &BrdfBasis, param: f32) -> Vec<f32> {
+    let (c, clamped) = basis.coefficients(param);
+    if clamped {
+        eprintln!(
+            "warning: {} parameter {param} is outside the basis range [{}, {}]; clamped",
+            basis.family, basis.param_range[0], basis.param_range[1]
+        );
+    }
+    c
+}
