@@ -19,3 +19,19 @@ pub use image_io::{read_exr_rgb, write_exr, write_image, write_png, ImageIoError
 pub use overrides::{
     check_material, parse_override, MaterialOverride, OverrideError, OverrideValue, Param,
 };
+
+/// One line for an error and its causes, for the CLIs: each cause is appended unless its text
+/// already appears in what is written (many of our errors quote their source).
+pub fn describe_error(e: &(dyn std::error::Error + 'static)) -> String {
+    let mut out = e.to_string();
+    let mut source = e.source();
+    while let Some(s) = source {
+        let text = s.to_string();
+        if !out.contains(&text) {
+            out.push_str(": ");
+            out.push_str(&text);
+        }
+        source = s.source();
+    }
+    out
+}

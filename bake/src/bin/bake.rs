@@ -1,1 +1,156 @@
-fn main() {}
+//! `bake`: the offline baker.
+//!
+//!     bake scenes/cornell/bake.toml            bake the config (writes its output file)
+//!     bake basis --family blinn-phong ...      BRDF basis error tables and report
+//!     bake bench rays                          ray throughput on a ~100K-triangle scene
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::{Result, bail};
+use clap::{Args, Parser, Subcommand};
+use prt_bake::config::Mode;
+use prt_bake::pixel::Precision;
+use prt_bake::run::{PixelRunSettings, human_bytes, load, parse_size, run_pixel};
+
+#[derive(Parser, Debug)]
+#[command(version, about = "PRT baker: bakes transfer tensors for editable-material relighting", args_conflicts_with_subcommands = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+    #[command(flatten)]
+    bake: BakeArgs,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Benchmarks (figures printed, never asserted).
+    #[command(subcommand)]
+    Bench(BenchCommand),
+}
+
+#[derive(Subcommand, Debug)]
+enum BenchCommand {
+    /// Rays per second, coherent and incoherent, one thread and all threads.
+    Rays {
+        /// Rays per measurement.
+        #[arg(long, default_value_t = 2_000_000)]
+        rays: usize,
+        /// Measure on this config's scene instead of the built-in ~100K-triangle scene.
+        #[arg(long)]
+        config: Option<PathBuf>,
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+#[derive(Args, Debug)]
+struct BakeArgs {
+    /// The bake config (TOML) to bake.
+    config: Option<PathBuf>,
+    /// Samples per pixel (default: the config's).
+    #[arg(long)]
+    spp: Option<u32>,
+    #[arg(long)]
+    width: Option<u32>,
+    #[arg(long)]
+    height: Option<u32>,
+    /// Output bake file (default: the config's `output`).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Storage of the transfer tensors: f16 (half the size) or f32.
+    #[arg(long, value_parser = ["f16", "f32"], default_value = "f16")]
+    precision: String,
+    /// Refuse to bake when the estimated memory exceeds this (e.g. 4G).
+    #[arg(long, value_parser = parse_size)]
+    max_memory: Option<u64>,
+    /// Also store a low-rank (PCA over pixels) variant with this many components per group.
+    #[arg(long)]
+    compress_rank: Option<usize>,
+    /// Basis BRDFs per editable glossy family (default: the config's [basis] count, else 6).
+    #[arg(long)]
+    basis_count: Option<usize>,
+    /// No progress or allocation report on stderr.
+    #[arg(long)]
+    quiet: bool,
+    /// Print one JSON object with the figures of the bake.
+    #[arg(long)]
+    json: bool,
+}
+
+fn main() -> ExitCode {
+    match run(Cli::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {}", prt_formats::describe_error(e.as_ref()));
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Some(Command::Bench(BenchCommand::Rays { rays, config, json })) => bench_rays(rays, config, json),
+        None => {
+            let Some(config) = cli.bake.config.clone() else {
+                bail!("give a bake config, e.g. `bake scenes/cornell/bake.toml` (see --help)");
+            };
+            bake(&config, &cli.bake)
+        }
+    }
+}
+
+fn bake(config_path: &std::path::Path, a: &BakeArgs) -> Result<()> {
+    let (config, scene) = load(config_path)?;
+    if config.mode == Mode::Vertex {
+        bail!(
+            "{}: mode = \"vertex\" (per-vertex transfer tensors) is not implemented yet; use mode = \"pixel\"",
+            config.config_path.display()
+        );
+    }
+    let settings = PixelRunSettings {
+        spp: a.spp,
+        width: a.width,
+        height: a.height,
+        output: a.out.clone(),
+        precision: Some(if a.precision == "f32" { Precision::F32 } else { Precision::F16 }),
+        max_memory: a.max_memory,
+        compress_rank: a.compress_rank,
+        basis_count: a.basis_count,
+        quiet: a.quiet || a.json,
+    };
+    let summary = run_pixel(&config, &scene, &settings)?;
+    if a.json {
+        println!("{}", serde_json::to_string(&summary)?);
+    } else {
+        eprintln!(
+            "baked {} in {:.2} s ({:.2} Mrays/s): {}",
+            summary.output.display(),
+            summary.seconds,
+            summary.stats["rays_per_second"].as_f64().unwrap_or(0.0) / 1e6,
+            human_bytes(summary.file_bytes)
+        );
+    }
+    Ok(())
+}
+
+fn bench_rays(rays: usize, config: Option<PathBuf>, json: bool) -> Result<()> {
+    let scene = match config {
+        Some(c) => load(&c)?.1,
+        None => prt_bake::bench::hundred_k_scene(),
+    };
+    let figures = prt_bake::bench::ray_throughput(&scene, rays.max(1));
+    if json {
+        println!(
+            "{}",
+            serde_json::json!({"triangles": scene.triangles.len(), "results": figures})
+        );
+    } else {
+        println!("ray throughput, {} triangles, {} rays per measurement", scene.triangles.len(), rays);
+        println!("{:<24} {:>8} {:>14}", "kind", "threads", "Mrays/s");
+        for f in figures {
+            println!("{:<24} {:>8} {:>14.2}", f.kind, f.threads, f.rays_per_second / 1e6);
+        }
+    }
+    Ok(())
+}

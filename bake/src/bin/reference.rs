@@ -47,7 +47,7 @@ fn main() -> ExitCode {
     match run(Args::parse()) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", prt_formats::describe_error(e.as_ref()));
             ExitCode::FAILURE
         }
     }
