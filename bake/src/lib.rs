@@ -1,6 +1,7 @@
 //! PRT baker: scene loading, ray queries, BRDF families and bases, bakers, reference path
 //! tracer. See DESIGN.md and docs/ for the mathematics and conventions.
 
+pub mod bench;
 pub mod brdf;
 pub mod scene;
 pub mod config;
@@ -8,7 +9,10 @@ pub mod accel;
 pub mod integrator;
 pub mod lights;
 pub mod sampling;
+pub mod pixel;
+pub mod pixel_compress;
 pub mod reference;
+pub mod run;
 pub mod testing;
 pub mod basis;
 pub mod plot;
