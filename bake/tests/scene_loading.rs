@@ -1205,3 +1205,17 @@ fn documented_example_config_parses() {
     // And it fits the scene it claims to be for.
     load_with_warnings(&c).unwrap_or_else(|e| panic!("{e}"));
 }
+
+#[test]
+fn shared_child_nodes_are_an_error() {
+    // Node 2 is a child of both node 1 and node 3: a DAG, not a tree.
+    let dir = TempDir::new("dag");
+    let mut doc = Doc::new();
+    let m = doc.mesh(&TRI, None, None);
+    let a = doc.push("nodes", json!({"children": [m]}));
+    let b = doc.push("nodes", json!({"children": [m]}));
+    doc.json["scenes"][0]["nodes"] = json!([0, a, b]);
+    doc.write_embedded(&dir);
+    let e = load_err(&dir.config(""));
+    assert!(e.contains("two parents"), "{e}");
+}

@@ -252,6 +252,23 @@ impl<'a> Loader<'a> {
             None => return Err(self.invalid("the file has no scene")),
         };
 
+        // glTF node hierarchies are strict trees. The crate's validation does not check that,
+        // and a node shared by several parents, level after level, would multiply the
+        // instances exponentially; refuse it up front.
+        let mut parent_of: Vec<Option<usize>> = vec![None; self.doc.nodes().len()];
+        for node in self.doc.nodes() {
+            for child in node.children() {
+                if let Some(first) = parent_of[child.index()].replace(node.index()) {
+                    return Err(self.invalid(format!(
+                        "node {} has two parents (nodes {first} and {}); glTF node hierarchies \
+                         must be trees",
+                        child.index(),
+                        node.index()
+                    )));
+                }
+            }
+        }
+
         // Walk the node tree (iteratively, with cycle and depth guards: validation does not
         // rule out a node being its own ancestor).
         let mut instances = Vec::new();
@@ -297,7 +314,8 @@ impl<'a> Loader<'a> {
             if let Some(mesh) = node.mesh() {
                 if node.skin().is_some() {
                     self.warnings.push(format!(
-                        "node {ni}: skinning is ignored; mesh \"{}\" is used in its bind pose",
+                        "node {ni}: skinning is ignored; mesh \"{}\" is placed by the node's \
+                         transform as if unskinned",
                         mesh.name().unwrap_or("unnamed")
                     ));
                 }
@@ -616,8 +634,13 @@ impl<'a> Loader<'a> {
                 }
             };
             if !indices.len().is_multiple_of(3) {
+                let what = if prim.indices().is_some() {
+                    "indices"
+                } else {
+                    "vertices (non-indexed)"
+                };
                 return Err(perr(format!(
-                    "{} indices is not a multiple of 3 (mode TRIANGLES)",
+                    "{} {what} is not a multiple of 3 (mode TRIANGLES)",
                     indices.len()
                 )));
             }
