@@ -1219,3 +1219,27 @@ fn shared_child_nodes_are_an_error() {
     let e = load_err(&dir.config(""));
     assert!(e.contains("two parents"), "{e}");
 }
+
+#[test]
+fn glb_embedded_image_via_buffer_view() {
+    let dir = TempDir::new("glb-image");
+    let mut png = Vec::new();
+    image::RgbImage::from_raw(1, 1, vec![0, 255, 0])
+        .unwrap()
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .unwrap();
+    let mut doc = Doc::new();
+    let m = doc.material(json!({"name": "glowing",
+        "emissiveFactor": [1.0, 1.0, 1.0], "emissiveTexture": {"index": 0}}));
+    doc.mesh(&TRI, None, Some(m));
+    let view = doc.view(&png);
+    doc.json["textures"] = json!([{"source": 0}]);
+    doc.json["images"] = json!([{"bufferView": view, "mimeType": "image/png"}]);
+    dir.write("scene.glb", doc.glb());
+    let p = dir.write("bake.toml", "scene = \"scene.glb\"");
+    let (scene, _) =
+        load_with_warnings(&BakeConfig::from_file(p).unwrap()).unwrap_or_else(|e| panic!("{e}"));
+    let t = scene.materials[0].emissive_texture.unwrap();
+    assert_eq!(scene.textures[t].texels, [Vec3::Y]);
+    assert!(scene.materials[0].is_emissive());
+}
