@@ -175,13 +175,24 @@ impl BakeConfig {
     }
 }
 
-/// `out/<config stem>.prtbake` in the config's folder.
+/// `out/<name>.prtbake` in the config's folder, where name is the config's stem, or the
+/// folder's name for a config called `bake.toml` (so `scenes/cornell/bake.toml` bakes to
+/// `scenes/cornell/out/cornell.prtbake`).
 fn default_output(config_path: &Path) -> PathBuf {
     let stem = config_path
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "bake".to_owned());
-    resolve(config_path, &format!("out/{stem}.prtbake"))
+    let name = if stem == "bake" {
+        config_path
+            .parent()
+            .and_then(|p| p.file_name())
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or(stem)
+    } else {
+        stem
+    };
+    resolve(config_path, &format!("out/{name}.prtbake"))
 }
 
 /// Resolves a path written in the config against the config's folder (absolute paths stay).
@@ -556,7 +567,7 @@ mod tests {
     fn defaults_and_paths() {
         let c = parse("scene = \"x.gltf\"").unwrap();
         assert_eq!(c.scene_path, PathBuf::from("/scenes/x/x.gltf"));
-        assert_eq!(c.output, PathBuf::from("/scenes/x/out/bake.prtbake"));
+        assert_eq!(c.output, PathBuf::from("/scenes/x/out/x.prtbake"));
         assert_eq!(
             (c.width, c.height, c.spp, c.reflections, c.seed),
             (256, 256, 64, 2, 0)
