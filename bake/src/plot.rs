@@ -72,7 +72,11 @@ pub const PALETTE: [[u8; 3]; 8] = [
 ];
 
 impl LinePlot {
-    pub fn new(title: impl Into<String>, x_label: impl Into<String>, y_label: impl Into<String>) -> LinePlot {
+    pub fn new(
+        title: impl Into<String>,
+        x_label: impl Into<String>,
+        y_label: impl Into<String>,
+    ) -> LinePlot {
         LinePlot {
             title: title.into(),
             x_label: x_label.into(),
@@ -108,10 +112,14 @@ impl LinePlot {
             .flat_map(|s| s.points.iter().copied())
             .filter(|&(x, y)| x.is_finite() && y.is_finite() && (!self.log_y || y > 0.0))
             .collect();
-        let (mut xmin, mut xmax) = pts.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, p| (a.0.min(p.0), a.1.max(p.0)));
+        let (mut xmin, mut xmax) = pts.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, p| {
+            (a.0.min(p.0), a.1.max(p.0))
+        });
         let (mut ymin, mut ymax) = match self.y_range {
             Some((a, b)) => (ty(a), ty(b)),
-            None => pts.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, p| (a.0.min(ty(p.1)), a.1.max(ty(p.1)))),
+            None => pts.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, p| {
+                (a.0.min(ty(p.1)), a.1.max(ty(p.1)))
+            }),
         };
         if !(xmin.is_finite() && xmax.is_finite()) {
             (xmin, xmax) = (0.0, 1.0);
@@ -146,7 +154,14 @@ impl LinePlot {
                 let yy = y1 as f64 - (e as f64 - ymin) / (ymax - ymin) * (y1 - y0) as f64;
                 hline(&mut img, x0, x1, yy as i64, grey);
                 let label = format!("1e{e}");
-                draw_text(&mut img, x0 - 8 - text_width(&label, scale), yy as i64 - 7, &label, scale, black);
+                draw_text(
+                    &mut img,
+                    x0 - 8 - text_width(&label, scale),
+                    yy as i64 - 7,
+                    &label,
+                    scale,
+                    black,
+                );
                 for m in 2..10 {
                     let v = e as f64 + (m as f64).log10();
                     if v < ymax {
@@ -160,14 +175,28 @@ impl LinePlot {
                 let yy = y1 as f64 - (v - ymin) / (ymax - ymin) * (y1 - y0) as f64;
                 hline(&mut img, x0, x1, yy as i64, grey);
                 let label = fmt_tick(v);
-                draw_text(&mut img, x0 - 8 - text_width(&label, scale), yy as i64 - 7, &label, scale, black);
+                draw_text(
+                    &mut img,
+                    x0 - 8 - text_width(&label, scale),
+                    yy as i64 - 7,
+                    &label,
+                    scale,
+                    black,
+                );
             }
         }
         for v in nice_ticks(xmin, xmax) {
             let xx = px(v) as i64;
             vline(&mut img, xx, y0, y1, grey);
             let label = fmt_tick(v);
-            draw_text(&mut img, xx - text_width(&label, scale) / 2, y1 + 6, &label, scale, black);
+            draw_text(
+                &mut img,
+                xx - text_width(&label, scale) / 2,
+                y1 + 6,
+                &label,
+                scale,
+                black,
+            );
         }
         // frame
         hline(&mut img, x0, x1, y0, black);
@@ -175,9 +204,30 @@ impl LinePlot {
         vline(&mut img, x0, y0, y1, black);
         vline(&mut img, x1, y0, y1, black);
         // labels
-        draw_text(&mut img, (w as i64 - text_width(&self.title, scale)) / 2, 10, &self.title, scale, black);
-        draw_text(&mut img, (x0 + x1 - text_width(&self.x_label, scale)) / 2, h as i64 - 24, &self.x_label, scale, black);
-        draw_text_vertical(&mut img, 8, (y0 + y1 + text_width(&self.y_label, scale)) / 2, &self.y_label, scale, black);
+        draw_text(
+            &mut img,
+            (w as i64 - text_width(&self.title, scale)) / 2,
+            10,
+            &self.title,
+            scale,
+            black,
+        );
+        draw_text(
+            &mut img,
+            (x0 + x1 - text_width(&self.x_label, scale)) / 2,
+            h as i64 - 24,
+            &self.x_label,
+            scale,
+            black,
+        );
+        draw_text_vertical(
+            &mut img,
+            8,
+            (y0 + y1 + text_width(&self.y_label, scale)) / 2,
+            &self.y_label,
+            scale,
+            black,
+        );
         // series
         for (si, s) in self.series.iter().enumerate() {
             let c = Rgb(s.color.unwrap_or(PALETTE[si % PALETTE.len()]));
@@ -189,20 +239,40 @@ impl LinePlot {
                 .collect();
             let mut dist = 0.0;
             for seg in p.windows(2) {
-                dist = draw_line(&mut img, seg[0], seg[1], c, s.dashed, dist, (x0, x1, y0, y1));
+                dist = draw_line(
+                    &mut img,
+                    seg[0],
+                    seg[1],
+                    c,
+                    s.dashed,
+                    dist,
+                    (x0, x1, y0, y1),
+                );
             }
             if s.markers {
                 for &(x, y) in &p {
                     for dy in -2..=2 {
                         for dx in -2..=2 {
-                            put_clipped(&mut img, x as i64 + dx, y as i64 + dy, c, (x0, x1, y0, y1));
+                            put_clipped(
+                                &mut img,
+                                x as i64 + dx,
+                                y as i64 + dy,
+                                c,
+                                (x0, x1, y0, y1),
+                            );
                         }
                     }
                 }
             }
         }
         // legend (top right, inside the frame)
-        let lw = self.series.iter().map(|s| text_width(&s.name, scale)).max().unwrap_or(0) + 40;
+        let lw = self
+            .series
+            .iter()
+            .map(|s| text_width(&s.name, scale))
+            .max()
+            .unwrap_or(0)
+            + 40;
         let lx = x1 - lw - 10;
         let mut ly = y0 + 8;
         if !self.series.is_empty() {
@@ -218,7 +288,15 @@ impl LinePlot {
         for (si, s) in self.series.iter().enumerate() {
             let c = Rgb(s.color.unwrap_or(PALETTE[si % PALETTE.len()]));
             let clip = (0, w as i64 - 1, 0, h as i64 - 1);
-            draw_line(&mut img, (lx as f64, ly as f64 + 7.0), (lx as f64 + 28.0, ly as f64 + 7.0), c, s.dashed, 0.0, clip);
+            draw_line(
+                &mut img,
+                (lx as f64, ly as f64 + 7.0),
+                (lx as f64 + 28.0, ly as f64 + 7.0),
+                c,
+                s.dashed,
+                0.0,
+                clip,
+            );
             draw_text(&mut img, lx + 34, ly, &s.name, scale, black);
             ly += 18;
         }
@@ -243,7 +321,7 @@ fn fmt_tick(v: f64) -> String {
 /// About five round ticks covering [lo, hi].
 fn nice_ticks(lo: f64, hi: f64) -> Vec<f64> {
     let span = hi - lo;
-    if !(span > 0.0) || !span.is_finite() {
+    if !span.is_finite() || span <= 0.0 {
         return vec![lo];
     }
     let raw = span / 5.0;
@@ -263,7 +341,15 @@ fn nice_ticks(lo: f64, hi: f64) -> Vec<f64> {
 }
 
 fn put_clipped(img: &mut RgbImage, x: i64, y: i64, c: Rgb<u8>, clip: (i64, i64, i64, i64)) {
-    if x >= clip.0 && x <= clip.1 && y >= clip.2 && y <= clip.3 && x >= 0 && y >= 0 && (x as u32) < img.width() && (y as u32) < img.height() {
+    if x >= clip.0
+        && x <= clip.1
+        && y >= clip.2
+        && y <= clip.3
+        && x >= 0
+        && y >= 0
+        && (x as u32) < img.width()
+        && (y as u32) < img.height()
+    {
         img.put_pixel(x as u32, y as u32, c);
     }
 }
@@ -281,7 +367,15 @@ fn vline(img: &mut RgbImage, x: i64, y0: i64, y1: i64, c: Rgb<u8>) {
 }
 
 /// 2-pixel-wide line; returns the dash phase at the end.
-fn draw_line(img: &mut RgbImage, a: (f64, f64), b: (f64, f64), c: Rgb<u8>, dashed: bool, mut dist: f64, clip: (i64, i64, i64, i64)) -> f64 {
+fn draw_line(
+    img: &mut RgbImage,
+    a: (f64, f64),
+    b: (f64, f64),
+    c: Rgb<u8>,
+    dashed: bool,
+    mut dist: f64,
+    clip: (i64, i64, i64, i64),
+) -> f64 {
     let len = ((b.0 - a.0).powi(2) + (b.1 - a.1).powi(2)).sqrt();
     let steps = (len * 2.0).ceil().max(1.0) as usize;
     for k in 0..=steps {
@@ -445,9 +539,12 @@ mod tests {
     fn renders_log_plot_with_legend() {
         let mut p = LinePlot::new("Test plot", "x", "y (log)");
         p.log_y = true;
-        p.series.push(Series::new("a", vec![(1.0, 1.0), (2.0, 0.1), (3.0, 0.01)]));
-        p.series.push(Series::new("b", vec![(1.0, 0.5), (3.0, 0.05)]).dashed());
-        p.series.push(Series::new("bad", vec![(1.0, f64::NAN), (2.0, -1.0)]));
+        p.series
+            .push(Series::new("a", vec![(1.0, 1.0), (2.0, 0.1), (3.0, 0.01)]));
+        p.series
+            .push(Series::new("b", vec![(1.0, 0.5), (3.0, 0.05)]).dashed());
+        p.series
+            .push(Series::new("bad", vec![(1.0, f64::NAN), (2.0, -1.0)]));
         let img = p.render();
         assert_eq!(img.width(), 720);
         let coloured = img.pixels().filter(|px| px.0 == PALETTE[0]).count();

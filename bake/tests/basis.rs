@@ -1,5 +1,6 @@
 //! BRDF bases (docs/brdf-basis.md): PCA basis, persistence, runtime evaluation, numerical
 //! stability, reproducibility, Tucker. Reduced grids keep every test fast.
+#![allow(clippy::needless_range_loop)]
 
 use faer::Mat;
 use glam::Vec3;
@@ -26,13 +27,30 @@ fn small_config(family: Family, nb: usize) -> BasisConfig {
 
 #[test]
 fn lobe_tables_match_the_brdf_module() {
-    for (family, p) in [(Family::BlinnPhong, 1.0), (Family::BlinnPhong, 150.0), (Family::Ggx, 0.05), (Family::Ggx, 0.7)] {
-        for &(ti, to, ph) in &[(0.1f64, 0.2f64, 3.0f64), (0.7, 0.6, 3.1), (1.2, 0.3, 1.0), (1.5, 1.5, 3.14)] {
+    for (family, p) in [
+        (Family::BlinnPhong, 1.0),
+        (Family::BlinnPhong, 150.0),
+        (Family::Ggx, 0.05),
+        (Family::Ggx, 0.7),
+    ] {
+        for &(ti, to, ph) in &[
+            (0.1f64, 0.2f64, 3.0f64),
+            (0.7, 0.6, 3.1),
+            (1.2, 0.3, 1.0),
+            (1.5, 1.5, 3.1),
+        ] {
             let wi = Vec3::new(ti.sin() as f32, 0.0, ti.cos() as f32);
-            let wo = Vec3::new((to.sin() * ph.cos()) as f32, (to.sin() * ph.sin()) as f32, to.cos() as f32);
+            let wo = Vec3::new(
+                (to.sin() * ph.cos()) as f32,
+                (to.sin() * ph.sin()) as f32,
+                to.cos() as f32,
+            );
             let a = family.specular_lobe(p as f32, wo, wi) as f64;
             let b = lobe_f64(family, p, ti, to, ph);
-            assert!((a - b).abs() <= 2e-4 * b.abs().max(1e-3), "{family:?} {p}: {a} vs {b}");
+            assert!(
+                (a - b).abs() <= 2e-4 * b.abs().max(1e-3),
+                "{family:?} {p}: {a} vs {b}"
+            );
         }
     }
 }
@@ -46,19 +64,29 @@ fn basis_is_orthonormal_and_errors_drop_with_nb() {
     let d = vec![std::f64::consts::FRAC_1_PI; SMALL.len()];
     for (i, x) in b.model.bases.iter().enumerate() {
         assert!(x.iter().all(|v| v.is_finite()));
-        assert!(dot_w(&w, x, &d).abs() < 1e-9, "basis {i} not orthogonal to Lambert");
+        assert!(
+            dot_w(&w, x, &d).abs() < 1e-9,
+            "basis {i} not orthogonal to Lambert"
+        );
         for (j, y) in b.model.bases.iter().enumerate() {
             let want = if i == j { 1.0 } else { 0.0 };
             assert!((dot_w(&w, x, y) - want).abs() < 1e-9);
         }
         // sign convention: largest-magnitude entry positive
-        let m = x.iter().copied().fold(0.0f64, |a, v| if v.abs() > a.abs() { v } else { a });
+        let m = x
+            .iter()
+            .copied()
+            .fold(0.0f64, |a, v| if v.abs() > a.abs() { v } else { a });
         assert!(m > 0.0);
     }
     let counts = [2, 4, 6, 8];
     let (rep, _) = family_report(&cfg, &counts, 4, 20).unwrap();
     for w in rep.rows.windows(2) {
-        assert!(w[1].ours.mean < w[0].ours.mean, "{:?}", rep.rows.iter().map(|r| r.ours.mean).collect::<Vec<_>>());
+        assert!(
+            w[1].ours.mean < w[0].ours.mean,
+            "{:?}",
+            rep.rows.iter().map(|r| r.ours.mean).collect::<Vec<_>>()
+        );
     }
     assert_eq!(select_count(&rep, 1.0, false), Some(2));
     assert_eq!(select_count(&rep, 1e-12, false), None);
@@ -89,12 +117,20 @@ fn persisted_basis_round_trips_and_interpolates() {
     let g = p.grid;
     let mut out = vec![0.0f32; p.num_bases];
     for &(i, o, k) in &[(0usize, 0usize, 0usize), (3, 4, 5), (9, 9, 19), (9, 2, 7)] {
-        let (ti, to, ph) = (AngularGrid::theta(g.n_theta_i, i), AngularGrid::theta(g.n_theta_o, o), AngularGrid::phi(g.n_phi, k));
+        let (ti, to, ph) = (
+            AngularGrid::theta(g.n_theta_i, i),
+            AngularGrid::theta(g.n_theta_o, o),
+            AngularGrid::phi(g.n_phi, k),
+        );
         p.eval_all(ti.cos() as f32, to.cos() as f32, ph.cos() as f32, &mut out);
         let n = g.index(i, o, k);
         for bb in 0..p.num_bases {
             let t = p.tables[n * p.num_bases + bb];
-            assert!((out[bb] - t).abs() <= 2e-3 * t.abs().max(1.0), "node ({i},{o},{k}) basis {bb}: {} vs {t}", out[bb]);
+            assert!(
+                (out[bb] - t).abs() <= 2e-3 * t.abs().max(1.0),
+                "node ({i},{o},{k}) basis {bb}: {} vs {t}",
+                out[bb]
+            );
         }
     }
     // diffuse material: c = (Kd, 0, ..)
@@ -113,7 +149,11 @@ fn rank_deficient_input_gives_basis_of_true_rank() {
         l.col_as_slice(0).to_vec(),
         l.col_as_slice(0).to_vec(),
         l.col_as_slice(1).to_vec(),
-        l.col_as_slice(0).iter().zip(l.col_as_slice(1)).map(|(a, b)| a + b).collect(),
+        l.col_as_slice(0)
+            .iter()
+            .zip(l.col_as_slice(1))
+            .map(|(a, b)| a + b)
+            .collect(),
         l.col_as_slice(2).iter().map(|v| 2.0 * v).collect(),
         l.col_as_slice(2).to_vec(),
     ];
@@ -134,7 +174,10 @@ fn rank_deficient_input_gives_basis_of_true_rank() {
     }
     // all-zero and non-finite input
     let z = Mat::<f64>::zeros(n, 3);
-    let model = PcaBuilder::new(z.as_ref(), SMALL, PcaOptions::ours()).unwrap().build(4).unwrap();
+    let model = PcaBuilder::new(z.as_ref(), SMALL, PcaOptions::ours())
+        .unwrap()
+        .build(4)
+        .unwrap();
     assert_eq!(model.num_bases(), 1);
     let mut bad = m.clone();
     bad[(3, 2)] = f64::NAN;
@@ -143,9 +186,16 @@ fn rank_deficient_input_gives_basis_of_true_rank() {
 
 #[test]
 fn sharp_lobes_stay_finite_and_report_large_errors() {
-    for (family, p) in [(Family::BlinnPhong, 200.0), (Family::BlinnPhong, 2000.0), (Family::Ggx, 0.01)] {
+    for (family, p) in [
+        (Family::BlinnPhong, 200.0),
+        (Family::BlinnPhong, 2000.0),
+        (Family::Ggx, 0.01),
+    ] {
         let t = tabulate_one(family, &AngularGrid::THESIS, p);
-        assert!(t.iter().all(|v| v.is_finite() && *v >= 0.0), "{family:?} {p}");
+        assert!(
+            t.iter().all(|v| v.is_finite() && *v >= 0.0),
+            "{family:?} {p}"
+        );
     }
     // a basis over [1, 2000] on a small grid: finite tables, honest (large) errors
     let mut cfg = small_config(Family::BlinnPhong, 6);
@@ -154,7 +204,10 @@ fn sharp_lobes_stay_finite_and_report_large_errors() {
     b.validate().unwrap();
     let e = continuous_error(&b, Family::BlinnPhong, 2000.0);
     assert!(e.finite && e.basis.is_finite() && e.grid_only.is_finite());
-    assert!(e.grid_only > 0.1, "a 10x10x20 grid cannot resolve s = 2000: {e:?}");
+    assert!(
+        e.grid_only > 0.1,
+        "a 10x10x20 grid cannot resolve s = 2000: {e:?}"
+    );
     let mut cfg = small_config(Family::Ggx, 6);
     cfg.spec = cfg.spec.with_range(0.01, 1.0).unwrap();
     let b = build_basis(cfg).unwrap().to_persisted();
@@ -166,7 +219,9 @@ fn sharp_lobes_stay_finite_and_report_large_errors() {
 
 #[test]
 fn evaluation_is_continuous_at_grazing_angles_and_the_pole() {
-    let p = build_basis(small_config(Family::BlinnPhong, 4)).unwrap().to_persisted();
+    let p = build_basis(small_config(Family::BlinnPhong, 4))
+        .unwrap()
+        .to_persisted();
     let nb = p.num_bases;
     let (mut a, mut b) = (vec![0.0f32; nb], vec![0.0f32; nb]);
     // grazing: cos -> 0 (and slightly negative, clamped)
@@ -185,7 +240,12 @@ fn evaluation_is_continuous_at_grazing_angles_and_the_pole() {
     for cp in [-1.0f32, 0.0, 0.7] {
         p.eval_all(ci, 0.6, cp, &mut b);
         for k in 0..nb {
-            assert!((a[k] - b[k]).abs() <= 1e-3 * a[k].abs().max(1.0), "pole basis {k}: {} vs {}", a[k], b[k]);
+            assert!(
+                (a[k] - b[k]).abs() <= 1e-3 * a[k].abs().max(1.0),
+                "pole basis {k}: {} vs {}",
+                a[k],
+                b[k]
+            );
         }
     }
     // NaN input does not poison the output
@@ -225,14 +285,25 @@ fn signed_bases_reconstruct_close_to_non_negative() {
 fn builds_are_bit_reproducible_across_runs_and_thread_counts() {
     let cfg = small_config(Family::Ggx, 6);
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
         pool.install(|| build_basis(cfg.clone()).unwrap().to_persisted())
     };
     let a = run(1);
     let b = run(2);
     let c = run(3);
-    assert!(a.tables.iter().zip(&b.tables).all(|(x, y)| x.to_bits() == y.to_bits()));
-    assert!(a.coefficients.iter().zip(&c.coefficients).all(|(x, y)| x.to_bits() == y.to_bits()));
+    assert!(a
+        .tables
+        .iter()
+        .zip(&b.tables)
+        .all(|(x, y)| x.to_bits() == y.to_bits()));
+    assert!(a
+        .coefficients
+        .iter()
+        .zip(&c.coefficients)
+        .all(|(x, y)| x.to_bits() == y.to_bits()));
     assert_eq!(a, b);
     assert_eq!(a, c);
 }
@@ -249,14 +320,30 @@ fn ours_beats_the_thesis_method_on_a_small_grid() {
 #[test]
 fn tucker_split_lowers_the_error() {
     let spec = FamilySpec::default_for(Family::BlinnPhong).unwrap();
-    let r = tucker::tucker_report(spec, 8, tucker::HemiGrid { n_theta: 4, n_phi: 12 }, &[1, 3], &[4, 8]).unwrap();
+    let r = tucker::tucker_report(
+        spec,
+        8,
+        tucker::HemiGrid {
+            n_theta: 4,
+            n_phi: 12,
+        },
+        &[1, 3],
+        &[4, 8],
+    )
+    .unwrap();
     assert_eq!(r.cells.len(), 4);
     for c in &r.cells {
         assert!(c.plain.is_finite() && c.split.is_finite());
         assert!(c.split < c.plain, "{c:?}");
     }
     // more rank, less error
-    let e = |nh: usize, nd: usize| r.cells.iter().find(|c| c.n_h == nh && c.n_dir == nd).unwrap().plain;
+    let e = |nh: usize, nd: usize| {
+        r.cells
+            .iter()
+            .find(|c| c.n_h == nh && c.n_dir == nd)
+            .unwrap()
+            .plain
+    };
     assert!(e(3, 8) <= e(1, 4));
 }
 
@@ -269,14 +356,21 @@ fn cli_rejects_bad_arguments_cleanly() {
         #[command(flatten)]
         a: BasisArgs,
     }
-    let parse = |args: &[&str]| Cli::try_parse_from(std::iter::once("bake").chain(args.iter().copied())).unwrap().a;
+    let parse = |args: &[&str]| {
+        Cli::try_parse_from(std::iter::once("bake").chain(args.iter().copied()))
+            .unwrap()
+            .a
+    };
     assert!(config_from_args(&parse(&["--family", "phongish"])).is_err());
     assert!(config_from_args(&parse(&["--grid", "30x30"])).is_err());
     assert!(config_from_args(&parse(&["--grid", "1x30x60"])).is_err());
     assert!(config_from_args(&parse(&["--range", "5,1"])).is_err());
     assert!(config_from_args(&parse(&["--family", "ggx", "--range", "0,1"])).is_err());
     assert!(config_from_args(&parse(&["--count", "0"])).is_err());
-    let c = config_from_args(&parse(&["--family", "ggx", "--range", "0.05,0.8", "--grid", "12x12x24"])).unwrap();
+    let c = config_from_args(&parse(&[
+        "--family", "ggx", "--range", "0.05,0.8", "--grid", "12x12x24",
+    ]))
+    .unwrap();
     assert_eq!(c.spec.range, (0.05, 0.8));
     assert_eq!(c.grid.n_phi, 24);
 }

@@ -62,17 +62,26 @@ fn non_negative_and_finite() {
         for _ in 0..20_000 {
             let (wo, wi) = (rng.hemi(), rng.hemi());
             let f = b.eval(wo, wi);
-            assert!(f.is_finite() && f.min_element() >= 0.0, "{b:?} {wo} {wi} -> {f}");
+            assert!(
+                f.is_finite() && f.min_element() >= 0.0,
+                "{b:?} {wo} {wi} -> {f}"
+            );
         }
         // grazing and mirror configurations
         for t in [0.0f32, 45.0, 89.0, 89.99, 90.0] {
             let wo = dir(t, 0.0);
             let wi = dir(t, 180.0);
             let f = b.eval(wo, wi);
-            assert!(f.is_finite() && f.min_element() >= 0.0, "{b:?} theta {t} -> {f}");
+            assert!(
+                f.is_finite() && f.min_element() >= 0.0,
+                "{b:?} theta {t} -> {f}"
+            );
         }
         // below the horizon: zero
-        assert_eq!(b.eval(dir(30.0, 0.0), Vec3::new(0.0, 0.0, -1.0)), Vec3::ZERO);
+        assert_eq!(
+            b.eval(dir(30.0, 0.0), Vec3::new(0.0, 0.0, -1.0)),
+            Vec3::ZERO
+        );
     }
 }
 
@@ -84,7 +93,10 @@ fn reciprocity() {
             let (wo, wi) = (rng.hemi(), rng.hemi());
             let (f1, f2) = (b.eval(wo, wi), b.eval(wi, wo));
             let d = (f1 - f2).abs().max_element();
-            assert!(d <= 1e-5 * f1.max_element().max(1e-6), "{b:?}: {f1} vs {f2}");
+            assert!(
+                d <= 1e-5 * f1.max_element().max(1e-6),
+                "{b:?}: {f1} vs {f2}"
+            );
         }
     }
 }
@@ -175,8 +187,14 @@ fn albedo_blinn_phong_bound() {
         // normal incidence, closed form: 4 (s+2) [2/(s+4) (1 - c^(s+4)) - 1/(s+2) (1 - c^(s+2))]
         let c = std::f64::consts::FRAC_1_SQRT_2;
         let sd = s as f64;
-        let a0 = 4.0 * (sd + 2.0) * (2.0 / (sd + 4.0) * (1.0 - c.powf(sd + 4.0)) - (1.0 - c.powf(sd + 2.0)) / (sd + 2.0));
-        assert!((bp_albedo(sd, 0.0) - a0).abs() < 2e-3 * a0, "s {s}: {} vs {a0}", bp_albedo(sd, 0.0));
+        let a0 = 4.0
+            * (sd + 2.0)
+            * (2.0 / (sd + 4.0) * (1.0 - c.powf(sd + 4.0)) - (1.0 - c.powf(sd + 2.0)) / (sd + 2.0));
+        assert!(
+            (bp_albedo(sd, 0.0) - a0).abs() < 2e-3 * a0,
+            "s {s}: {} vs {a0}",
+            bp_albedo(sd, 0.0)
+        );
         // Kd + Ks max_albedo(s) = 1: energy conserving for every direction
         let ks = 0.6 / m as f32;
         let kd = 1.0 - ks * m as f32;
@@ -186,7 +204,10 @@ fn albedo_blinn_phong_bound() {
             assert!(a <= 1.0 + 0.01, "s {s} theta {t}: albedo {a}");
             // the sampler's estimate agrees with the quadrature
             let q = kd as f64 + ks as f64 * bp_albedo(sd, (t as f64).to_radians());
-            assert!((a - q).abs() < 0.02 * q.max(0.1), "s {s} theta {t}: MC {a} vs quadrature {q}");
+            assert!(
+                (a - q).abs() < 0.02 * q.max(0.1),
+                "s {s} theta {t}: MC {a} vs quadrature {q}"
+            );
         }
     }
 }
@@ -223,7 +244,10 @@ fn pdf_normalization() {
             let integral = pdf_integral(&b, wo, 1500, 1500);
             // mass the sampler sends below the horizon (it returns None for those)
             let n = 200_000;
-            let lost = (0..n).filter(|_| b.sample(wo, rng.vec2(), rng.f32()).is_none()).count() as f64 / n as f64;
+            let lost = (0..n)
+                .filter(|_| b.sample(wo, rng.vec2(), rng.f32()).is_none())
+                .count() as f64
+                / n as f64;
             assert!(
                 (integral + lost - 1.0).abs() < 0.01,
                 "{b:?} theta {t}: ∫pdf = {integral}, lost = {lost}"
@@ -251,7 +275,10 @@ fn sampled_histogram_matches_pdf() {
             if let Some(s) = b.sample(wo, rng.vec2(), rng.f32()) {
                 let z = s.wi.z.clamp(0.0, 0.999_999) as f64;
                 let p = (s.wi.y as f64).atan2(s.wi.x as f64).rem_euclid(2.0 * PI);
-                let (a, c) = ((z * nz as f64) as usize, ((p / (2.0 * PI)) * np as f64) as usize);
+                let (a, c) = (
+                    (z * nz as f64) as usize,
+                    ((p / (2.0 * PI)) * np as f64) as usize,
+                );
                 hist[a.min(nz - 1) * np + c.min(np - 1)] += 1.0;
             }
         }
@@ -286,8 +313,12 @@ fn sampled_histogram_matches_pdf() {
 #[test]
 #[ignore]
 fn print_blinn_phong_albedo() {
-    println!("| s | albedo at theta_o = 0 | 45 deg | 80 deg | max over theta_o | Ks max with Kd = 0 |");
-    for s in [0.0, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0, 1000.0, 2000.0] {
+    println!(
+        "| s | albedo at theta_o = 0 | 45 deg | 80 deg | max over theta_o | Ks max with Kd = 0 |"
+    );
+    for s in [
+        0.0, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0, 1000.0, 2000.0,
+    ] {
         let m = bp_max_albedo(s);
         println!(
             "| {s} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} |",

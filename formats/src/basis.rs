@@ -27,6 +27,9 @@
 use serde::{Deserialize, Serialize};
 use std::f32::consts::{FRAC_PI_2, PI};
 
+/// Bases up to this count are accumulated in registers by [`BrdfBasis::eval_weights`].
+const MAX_REGISTER_BASES: usize = 16;
+
 /// Version of the [`BrdfBasis`] schema. Bump when the meaning or layout of a field changes.
 pub const BASIS_SCHEMA_VERSION: u32 = 1;
 
@@ -61,6 +64,15 @@ impl ParamWarp {
         match self {
             ParamWarp::Linear => p,
             ParamWarp::Log { offset } => (p + offset as f64).max(1e-300).ln(),
+        }
+    }
+
+    /// [`ParamWarp::apply`] in f32 (the runtime's interpolation).
+    #[inline]
+    pub fn apply_f32(self, p: f32) -> f32 {
+        match self {
+            ParamWarp::Linear => p,
+            ParamWarp::Log { offset } => (p + offset).max(f32::MIN_POSITIVE).ln(),
         }
     }
 
@@ -154,6 +166,7 @@ pub struct BrdfBasis {
 /// that the baker and the runtime evaluate the tables identically and quickly. `x` is clamped
 /// to [-1, 1].
 #[inline]
+#[allow(clippy::excessive_precision)]
 pub fn fast_acos(x: f32) -> f32 {
     let x = x.clamp(-1.0, 1.0);
     let a = x.abs();
@@ -190,7 +203,11 @@ pub struct GridWeights {
 #[inline]
 fn axis(t: f32, n: usize) -> (usize, f32) {
     // t in node units, clamped to [0, n-1]
-    let t = if t.is_nan() { 0.0 } else { t.clamp(0.0, (n - 1) as f32) };
+    let t = if t.is_nan() {
+        0.0
+    } else {
+        t.clamp(0.0, (n - 1) as f32)
+    };
     let i0 = (t as usize).min(n - 2);
     (i0, (t - i0 as f32).clamp(0.0, 1.0))
 }
@@ -233,7 +250,7 @@ impl BrdfBasis {
             ));
         }
         if let ParamWarp::Log { offset } = self.param_warp {
-            if !(self.param_samples[0] + offset > 0.0) {
+            if self.param_samples[0] + offset <= 0.0 || offset.is_nan() {
                 return Err(BasisError::Invalid(
                     "log warp needs param + offset > 0 over the range".into(),
                 ));
@@ -275,11 +292,11 @@ impl BrdfBasis {
         // first sample index j with ps[j] > p, so ps[j0] <= p < ps[j0 + 1]
         let j = ps.partition_point(|&x| x <= p);
         let j0 = j.saturating_sub(1).min(ps.len() - 2);
-        let u0 = self.param_warp.apply(ps[j0] as f64);
-        let u1 = self.param_warp.apply(ps[j0 + 1] as f64);
-        let u = self.param_warp.apply(p as f64);
+        let u0 = self.param_warp.apply_f32(ps[j0]);
+        let u1 = self.param_warp.apply_f32(ps[j0 + 1]);
+        let u = self.param_warp.apply_f32(p);
         let t = if u1 > u0 {
-            ((u - u0) / (u1 - u0)).clamp(0.0, 1.0) as f32
+            ((u - u0) / (u1 - u0)).clamp(0.0, 1.0)
         } else {
             0.0
         };
@@ -337,8 +354,6 @@ impl BrdfBasis {
     #[inline]
     pub fn eval_weights(&self, w: &GridWeights, out: &mut [f32]) {
         let nb = self.num_bases;
-        let out = &mut out[..nb];
-        out.fill(0.0);
         let t = &self.tables;
         let corners = [
             (0, (1.0 - w.fi) * (1.0 - w.fo)),
@@ -346,12 +361,28 @@ impl BrdfBasis {
             (w.stride_i, w.fi * (1.0 - w.fo)),
             (w.stride_i + w.stride_o, w.fi * w.fo),
         ];
+        if nb <= MAX_REGISTER_BASES {
+            // accumulate in a local array (kept in registers) rather than through `out`
+            let mut acc = [0.0f32; MAX_REGISTER_BASES];
+            for (off, wio) in corners {
+                let n0 = (w.base + off) * nb;
+                let (lo, hi) = t[n0..n0 + 2 * nb].split_at(nb);
+                let (w0, w1) = (wio * (1.0 - w.fp), wio * w.fp);
+                for b in 0..nb {
+                    acc[b] += w0 * lo[b] + w1 * hi[b];
+                }
+            }
+            out[..nb].copy_from_slice(&acc[..nb]);
+            return;
+        }
+        let out = &mut out[..nb];
+        out.fill(0.0);
         for (off, wio) in corners {
             let n0 = (w.base + off) * nb;
-            let a = &t[n0..n0 + 2 * nb];
+            let (lo, hi) = t[n0..n0 + 2 * nb].split_at(nb);
             let (w0, w1) = (wio * (1.0 - w.fp), wio * w.fp);
             for b in 0..nb {
-                out[b] += w0 * a[b] + w1 * a[nb + b];
+                out[b] += w0 * lo[b] + w1 * hi[b];
             }
         }
     }

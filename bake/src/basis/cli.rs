@@ -84,7 +84,10 @@ fn parse_grid(s: &str) -> Result<AngularGrid> {
     };
     g.validate().map_err(|e| anyhow!("{e}"))?;
     if g.len() > 4_000_000 {
-        bail!("--grid {s} has {} nodes; at most 4,000,000 are supported", g.len());
+        bail!(
+            "--grid {s} has {} nodes; at most 4,000,000 are supported",
+            g.len()
+        );
     }
     Ok(g)
 }
@@ -128,7 +131,11 @@ pub fn config_from_args(args: &BasisArgs) -> Result<BasisConfig> {
     if args.thesis_method {
         cfg.options = PcaOptions::thesis();
     }
-    if args.count == 0 || args.min_count == 0 || args.min_count > args.max_count || args.max_count > 64 {
+    if args.count == 0
+        || args.min_count == 0
+        || args.min_count > args.max_count
+        || args.max_count > 64
+    {
         bail!("need 1 <= --min-count <= --max-count <= 64 and --count >= 1");
     }
     if args.eval_samples < 2 || args.eval_samples > 4096 {
@@ -144,11 +151,11 @@ pub fn run(args: &BasisArgs) -> Result<()> {
     }
     let cfg = config_from_args(args)?;
     let counts: Vec<usize> = (args.min_count..=args.max_count).collect();
-    let (mut rep, mut basis) =
-        report::family_report(&cfg, &counts, args.count, args.eval_samples).map_err(|e| anyhow!(e))?;
+    let (mut rep, mut basis) = report::family_report(&cfg, &counts, args.count, args.eval_samples)
+        .map_err(|e| anyhow!(e))?;
     let mut selected = None;
     if let Some(t) = args.target {
-        if !(t > 0.0) {
+        if t.is_nan() || t <= 0.0 {
             bail!("--target must be a positive relative error, e.g. 0.01");
         }
         match report::select_count(&rep, t, args.target_mean) {
@@ -158,7 +165,8 @@ pub fn run(args: &BasisArgs) -> Result<()> {
                     let mut a = args.clone();
                     a.count = nb;
                     let c = config_from_args(&a)?;
-                    let r = report::family_report(&c, &[nb], nb, args.eval_samples).map_err(|e| anyhow!(e))?;
+                    let r = report::family_report(&c, &[nb], nb, args.eval_samples)
+                        .map_err(|e| anyhow!(e))?;
                     basis = r.1;
                     rep.chosen = nb;
                     rep.eval_all_ns = r.0.eval_all_ns;
@@ -194,14 +202,21 @@ pub fn run(args: &BasisArgs) -> Result<()> {
         if let Some(nb) = selected {
             println!("target met by N_b = {nb}");
         }
-        println!("end-to-end error vs the exact lobe, off-grid (N_b = {}):", basis.num_bases);
+        println!(
+            "end-to-end error vs the exact lobe, off-grid (N_b = {}):",
+            basis.num_bases
+        );
         for c in &sharp {
             println!(
                 "  p = {:>8}: basis {:>8.3} %, grid alone {:>8.3} %{}{}",
                 c.param,
                 100.0 * c.basis,
                 100.0 * c.grid_only,
-                if c.clamped { " (outside range: clamped)" } else { "" },
+                if c.clamped {
+                    " (outside range: clamped)"
+                } else {
+                    ""
+                },
                 if c.finite { "" } else { " NON-FINITE" }
             );
         }
@@ -213,7 +228,10 @@ pub fn run(args: &BasisArgs) -> Result<()> {
 }
 
 /// End-to-end checks on a few lobes including very sharp ones outside the range.
-pub fn sharp_checks(spec: &FamilySpec, basis: &prt_formats::basis::BrdfBasis) -> Vec<report::ContinuousError> {
+pub fn sharp_checks(
+    spec: &FamilySpec,
+    basis: &prt_formats::basis::BrdfBasis,
+) -> Vec<report::ContinuousError> {
     let params: Vec<f64> = match spec.family {
         Family::BlinnPhong => vec![1.0, 10.0, 50.0, 200.0, 2000.0],
         Family::Ggx => vec![1.0, 0.3, 0.1, 0.05, 0.02, 0.01],
@@ -232,7 +250,8 @@ pub fn run_tucker(spec: &FamilySpec, args: &BasisArgs) -> Result<TuckerReport> {
         bail!("--tucker-samples must be in 2..=512");
     }
     let nd: Vec<usize> = (1..=8).map(|k| 4 * k).collect();
-    tucker::tucker_report(*spec, args.tucker_samples, dirs, &[1, 2, 3, 4, 5, 6], &nd).map_err(|e| anyhow!(e))
+    tucker::tucker_report(*spec, args.tucker_samples, dirs, &[1, 2, 3, 4, 5, 6], &nd)
+        .map_err(|e| anyhow!(e))
 }
 
 /// Text table of a Tucker report (rows n_h, columns n_o = n_i).
@@ -266,7 +285,9 @@ pub fn format_tucker(t: &TuckerReport) -> String {
 }
 
 /// Helper for docgen: a report per family with the CLI's settings.
-pub fn family_reports(args: &BasisArgs) -> Result<Vec<(FamilyReport, prt_formats::basis::BrdfBasis, BasisConfig)>> {
+pub fn family_reports(
+    args: &BasisArgs,
+) -> Result<Vec<(FamilyReport, prt_formats::basis::BrdfBasis, BasisConfig)>> {
     let mut out = Vec::new();
     for fam in ["blinn-phong", "ggx"] {
         let mut a = args.clone();
@@ -274,7 +295,8 @@ pub fn family_reports(args: &BasisArgs) -> Result<Vec<(FamilyReport, prt_formats
         a.range = None;
         let cfg = config_from_args(&a)?;
         let counts: Vec<usize> = (a.min_count..=a.max_count).collect();
-        let (r, b) = report::family_report(&cfg, &counts, a.count, a.eval_samples).map_err(|e| anyhow!(e))?;
+        let (r, b) = report::family_report(&cfg, &counts, a.count, a.eval_samples)
+            .map_err(|e| anyhow!(e))?;
         out.push((r, b, cfg));
     }
     Ok(out)

@@ -21,19 +21,30 @@ fn error_plot(r: &FamilyReport, path: &Path) -> Result<()> {
     );
     p.log_y = true;
     let pts = |f: &dyn Fn(&super::report::NbRow) -> f64| -> Vec<(f64, f64)> {
-        r.rows.iter().map(|row| (row.num_bases as f64, f(row))).collect()
+        r.rows
+            .iter()
+            .map(|row| (row.num_bases as f64, f(row)))
+            .collect()
     };
-    p.series.push(Series::new("ours mean", pts(&|x| x.ours.mean)).color([0, 114, 178]));
-    p.series.push(Series::new("ours max", pts(&|x| x.ours.max)).color([0, 114, 178]).dashed());
     p.series
-        .push(Series::new("thesis method mean", pts(&|x| x.thesis_cosine_metric.mean)).color([213, 94, 0]));
+        .push(Series::new("ours mean", pts(&|x| x.ours.mean)).color([0, 114, 178]));
+    p.series.push(
+        Series::new("ours max", pts(&|x| x.ours.max))
+            .color([0, 114, 178])
+            .dashed(),
+    );
+    p.series.push(
+        Series::new("thesis method mean", pts(&|x| x.thesis_cosine_metric.mean))
+            .color([213, 94, 0]),
+    );
     p.series.push(
         Series::new("thesis method max", pts(&|x| x.thesis_cosine_metric.max))
             .color([213, 94, 0])
             .dashed(),
     );
     if r.family == "blinn-phong" {
-        let mut s = Series::new("thesis paper, N_b=6", vec![(6.0, 0.007979), (6.0, 0.06747)]).color([0, 0, 0]);
+        let mut s = Series::new("thesis paper, N_b=6", vec![(6.0, 0.007979), (6.0, 0.06747)])
+            .color([0, 0, 0]);
         s.dashed = true;
         p.series.push(s);
     }
@@ -49,10 +60,25 @@ fn tucker_plot(t: &TuckerReport, path: &Path) -> Result<()> {
     p.log_y = true;
     let colors = [[0, 114, 178], [213, 94, 0], [0, 158, 115]];
     for (ci, nh) in [1usize, 3, 6].iter().enumerate() {
-        let plain: Vec<(f64, f64)> = t.cells.iter().filter(|c| c.n_h == *nh).map(|c| (c.n_dir as f64, c.plain)).collect();
-        let split: Vec<(f64, f64)> = t.cells.iter().filter(|c| c.n_h == *nh).map(|c| (c.n_dir as f64, c.split)).collect();
-        p.series.push(Series::new(format!("n_h={nh} split"), split).color(colors[ci]));
-        p.series.push(Series::new(format!("n_h={nh} plain"), plain).color(colors[ci]).dashed());
+        let plain: Vec<(f64, f64)> = t
+            .cells
+            .iter()
+            .filter(|c| c.n_h == *nh)
+            .map(|c| (c.n_dir as f64, c.plain))
+            .collect();
+        let split: Vec<(f64, f64)> = t
+            .cells
+            .iter()
+            .filter(|c| c.n_h == *nh)
+            .map(|c| (c.n_dir as f64, c.split))
+            .collect();
+        p.series
+            .push(Series::new(format!("n_h={nh} split"), split).color(colors[ci]));
+        p.series.push(
+            Series::new(format!("n_h={nh} plain"), plain)
+                .color(colors[ci])
+                .dashed(),
+        );
     }
     p.write_png(path).map_err(anyhow::Error::msg)
 }
@@ -115,7 +141,8 @@ fn tucker_md(t: &TuckerReport) -> String {
 pub fn write_report(md_path: &Path, args: &BasisArgs) -> Result<Vec<PathBuf>> {
     let dir = md_path.parent().unwrap_or(Path::new("."));
     let img_dir = dir.join("img");
-    std::fs::create_dir_all(&img_dir).with_context(|| format!("cannot create {}", img_dir.display()))?;
+    std::fs::create_dir_all(&img_dir)
+        .with_context(|| format!("cannot create {}", img_dir.display()))?;
     let t0 = std::time::Instant::now();
     let reps = family_reports(args)?;
     let mut imgs = Vec::new();
@@ -146,10 +173,20 @@ pub fn write_report(md_path: &Path, args: &BasisArgs) -> Result<Vec<PathBuf>> {
          `f cos(theta_i)` relative to the lobe's largest `f cos(theta_i)` (Kd = 0, Ks = 1, the \
          worst case); \"neg. mass\" the largest cosine-weighted L2 norm of the negative part \
          relative to the lobe's norm.\n",
-        args.grid, args.samples, args.eval_samples, 0.0f64.max(t0.elapsed().as_secs_f64())
+        args.grid,
+        args.samples,
+        args.eval_samples,
+        0.0f64.max(t0.elapsed().as_secs_f64())
     );
     for ((r, basis, cfg), t) in reps.iter().zip(&tuckers) {
-        let _ = writeln!(md, "### {} ({} in [{}, {}])\n", r.family, if r.family == "ggx" { "alpha" } else { "s" }, r.param_range[0], r.param_range[1]);
+        let _ = writeln!(
+            md,
+            "### {} ({} in [{}, {}])\n",
+            r.family,
+            if r.family == "ggx" { "alpha" } else { "s" },
+            r.param_range[0],
+            r.param_range[1]
+        );
         md += &table_md(r);
         let _ = writeln!(
             md,
@@ -188,7 +225,11 @@ pub fn write_report(md_path: &Path, args: &BasisArgs) -> Result<Vec<PathBuf>> {
             t.elapsed_ms / 1e3
         );
         md += &tucker_md(t);
-        let _ = writeln!(md, "\n![Tucker error](img/brdf-basis-tucker-{}.png)\n", t.family);
+        let _ = writeln!(
+            md,
+            "\n![Tucker error](img/brdf-basis-tucker-{}.png)\n",
+            t.family
+        );
     }
     std::fs::write(md_path, md).with_context(|| format!("cannot write {}", md_path.display()))?;
     eprintln!("wrote {} and {} plots", md_path.display(), imgs.len());

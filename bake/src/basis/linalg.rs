@@ -1,15 +1,20 @@
 //! Thin wrappers over faer's f64 decompositions, always run sequentially (`Par::Seq`) so that
 //! results are bit-for-bit identical whatever the thread count, plus a sign convention.
 
+use faer::diag::Diag;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::evd::{self_adjoint_evd, self_adjoint_evd_scratch, ComputeEigenvectors};
-use faer::linalg::qr::no_pivoting::factor::{qr_in_place, qr_in_place_scratch, recommended_block_size};
+use faer::linalg::qr::no_pivoting::factor::{
+    qr_in_place, qr_in_place_scratch, recommended_block_size,
+};
 use faer::linalg::svd::{svd, svd_scratch, ComputeSvdVectors};
-use faer::diag::Diag;
 use faer::{Accum, Mat, MatRef, Par};
 
+/// `(U, s, V)` of a thin SVD.
+pub type SvdParts = (Mat<f64>, Vec<f64>, Mat<f64>);
+
 /// Thin SVD `A = U diag(s) V^T` with singular values in nonincreasing order.
-pub fn svd_thin(a: MatRef<'_, f64>) -> Result<(Mat<f64>, Vec<f64>, Mat<f64>), String> {
+pub fn svd_thin(a: MatRef<'_, f64>) -> Result<SvdParts, String> {
     let (m, n) = a.shape();
     let k = m.min(n);
     let mut u = Mat::<f64>::zeros(m, k);
@@ -72,12 +77,8 @@ pub fn sym_eig_desc(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), String> 
     if n == 0 {
         return Ok((Vec::new(), u));
     }
-    let req = self_adjoint_evd_scratch::<f64>(
-        n,
-        ComputeEigenvectors::Yes,
-        Par::Seq,
-        Default::default(),
-    );
+    let req =
+        self_adjoint_evd_scratch::<f64>(n, ComputeEigenvectors::Yes, Par::Seq, Default::default());
     let mut buf = MemBuffer::new(req);
     self_adjoint_evd(
         a,
@@ -132,7 +133,9 @@ mod tests {
 
     #[test]
     fn svd_and_qr_agree() {
-        let a = Mat::from_fn(50, 6, |i, j| ((i * 7 + j * 3) % 11) as f64 - 5.0 + (i as f64) * 0.01);
+        let a = Mat::from_fn(50, 6, |i, j| {
+            ((i * 7 + j * 3) % 11) as f64 - 5.0 + (i as f64) * 0.01
+        });
         let (_, s, _) = svd_thin(a.as_ref()).unwrap();
         let r = qr_r(a.as_ref());
         let (_, s2, _) = svd_thin(r.as_ref()).unwrap();

@@ -122,7 +122,11 @@ pub fn sample_prior(spec: &FamilySpec, params: &[f64], density: SampleDensity) -
                     ParamWarp::Linear => 1.0,
                     ParamWarp::Log { offset } => p + offset as f64,
                 };
-                let end = if n > 1 && (j == 0 || j == n - 1) { 0.5 } else { 1.0 };
+                let end = if n > 1 && (j == 0 || j == n - 1) {
+                    0.5
+                } else {
+                    1.0
+                };
                 dpdu * end
             })
             .collect(),
@@ -144,7 +148,8 @@ impl BasisBuilder {
         let params = grid::param_samples(config.spec.range, config.spec.warp, config.param_samples);
         let lobes = grid::tabulate(config.spec.family, &config.grid, &params);
         let prior = sample_prior(&config.spec, &params, config.options.density);
-        let pca = PcaBuilder::with_prior(lobes.as_ref(), config.grid, config.options.clone(), &prior)?;
+        let pca =
+            PcaBuilder::with_prior(lobes.as_ref(), config.grid, config.options.clone(), &prior)?;
         Ok(BasisBuilder {
             config,
             params,

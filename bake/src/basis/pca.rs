@@ -202,7 +202,11 @@ pub struct PcaBuilder {
 impl PcaBuilder {
     /// `lobes`: `grid.len() x P` tabulated lobes, all samples weighted equally. Fails on
     /// non-finite input.
-    pub fn new(lobes: MatRef<'_, f64>, grid: AngularGrid, options: PcaOptions) -> Result<Self, String> {
+    pub fn new(
+        lobes: MatRef<'_, f64>,
+        grid: AngularGrid,
+        options: PcaOptions,
+    ) -> Result<Self, String> {
         let p = lobes.ncols();
         Self::with_prior(lobes, grid, options, &vec![1.0; p])
     }
@@ -219,12 +223,15 @@ impl PcaBuilder {
             return Err("sample prior must hold one finite nonnegative weight per lobe".into());
         }
         let psum: f64 = prior.iter().sum();
-        if !(psum > 0.0) {
+        if psum.is_nan() || psum <= 0.0 {
             return Err("sample prior is all zero".into());
         }
         let prior: Vec<f64> = prior.iter().map(|x| x / psum).collect();
         if n != grid.len() {
-            return Err(format!("lobe tables have {n} rows, grid has {} nodes", grid.len()));
+            return Err(format!(
+                "lobe tables have {n} rows, grid has {} nodes",
+                grid.len()
+            ));
         }
         if p == 0 {
             return Err("no lobes to build a basis from".into());
@@ -396,7 +403,7 @@ impl PcaBuilder {
                 }
             }
             let n = dot_w(w, &b, &b).sqrt();
-            if !(n > 1e-9 * n0.max(1e-300)) || !n.is_finite() {
+            if !n.is_finite() || n <= 1e-9 * n0.max(1e-300) {
                 continue;
             }
             for x in b.iter_mut() {

@@ -62,7 +62,11 @@ impl ErrStats {
             mean: errs.iter().sum::<f64>() / errs.len().max(1) as f64,
             max,
             max_at,
-            aggregate: if sq_den > 0.0 { (sq_num / sq_den).sqrt() } else { 0.0 },
+            aggregate: if sq_den > 0.0 {
+                (sq_num / sq_den).sqrt()
+            } else {
+                0.0
+            },
         }
     }
 }
@@ -99,7 +103,9 @@ fn measure(
         let l = eval.lobes.col_as_slice(j);
         let r = recon(j);
         errs.push(rel_err_w(w, l, &r));
-        let peak = (0..l.len()).map(|n| l[n] * cos_i[n / per_i]).fold(0.0, f64::max);
+        let peak = (0..l.len())
+            .map(|n| l[n] * cos_i[n / per_i])
+            .fold(0.0, f64::max);
         let (mut nm, mut ln) = (0.0, 0.0);
         for n in 0..w.len() {
             let d = l[n] - r[n];
@@ -238,7 +244,11 @@ pub fn family_report(
         FamilyReport {
             family: config.spec.family.name().into(),
             param_range: [config.spec.range.0, config.spec.range.1],
-            grid: [config.grid.n_theta_i, config.grid.n_theta_o, config.grid.n_phi],
+            grid: [
+                config.grid.n_theta_i,
+                config.grid.n_theta_o,
+                config.grid.n_phi,
+            ],
             build_samples: config.param_samples,
             eval_set: eval.description.clone(),
             method: config.options.clone(),
@@ -275,7 +285,9 @@ pub fn time_runtime(basis: &BrdfBasis) -> (f64, f64) {
         state ^= state << 17;
         (state >> 40) as f32 / (1u64 << 24) as f32
     };
-    let dirs: Vec<[f32; 3]> = (0..n).map(|_| [next(), next(), next() * 2.0 - 1.0]).collect();
+    let dirs: Vec<[f32; 3]> = (0..n)
+        .map(|_| [next(), next(), next() * 2.0 - 1.0])
+        .collect();
     let mut out = vec![0.0f32; basis.num_bases];
     let mut acc = 0.0f32;
     let reps = 16;
@@ -360,7 +372,11 @@ pub struct ContinuousError {
 /// Cosine-weighted relative L2 error of the runtime reconstruction of lobe `param` against the
 /// exact f64 lobe, by midpoint quadrature on a `2 n_theta x 2 n_theta x 2 n_phi` grid of
 /// cell centres (points between the table's nodes).
-pub fn continuous_error(basis: &BrdfBasis, family: crate::brdf::Family, param: f64) -> ContinuousError {
+pub fn continuous_error(
+    basis: &BrdfBasis,
+    family: crate::brdf::Family,
+    param: f64,
+) -> ContinuousError {
     use std::f64::consts::{FRAC_PI_2, PI};
     let g = basis.grid;
     let (nt_i, nt_o, np) = (2 * g.n_theta_i, 2 * g.n_theta_o, 2 * g.n_phi);

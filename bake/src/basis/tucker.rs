@@ -67,14 +67,18 @@ impl BrdfTensor {
     pub fn new(spec: FamilySpec, params: Vec<f64>, dirs: HemiGrid) -> BrdfTensor {
         let nd = dirs.len();
         let dv: Vec<[f64; 3]> = (0..nd).map(|n| dirs.dir(n)).collect();
-        let dir_scale: Vec<f64> = dv.iter().map(|d| (d[2] * dirs.solid_angle()).sqrt()).collect();
+        let dir_scale: Vec<f64> = dv
+            .iter()
+            .map(|d| (d[2] * dirs.solid_angle()).sqrt())
+            .collect();
         let slabs: Vec<(Vec<f64>, f64)> = params
             .par_iter()
             .map(|&p| {
                 let mut s = vec![0.0; nd * nd];
                 for o in 0..nd {
                     for i in 0..nd {
-                        s[o * nd + i] = eval_pair(spec, p, dv[o], dv[i]) * dir_scale[o] * dir_scale[i];
+                        s[o * nd + i] =
+                            eval_pair(spec, p, dv[o], dv[i]) * dir_scale[o] * dir_scale[i];
                     }
                 }
                 let norm = s.iter().map(|x| x * x).sum::<f64>().sqrt();
@@ -186,7 +190,11 @@ fn nnls_small(gg: &[f64], gy: &[f64], k: usize) -> Vec<f64> {
         let mut ok = true;
         for col in 0..m {
             let piv = (col..m)
-                .max_by(|&x, &y| a[x * (m + 1) + col].abs().total_cmp(&a[y * (m + 1) + col].abs()))
+                .max_by(|&x, &y| {
+                    a[x * (m + 1) + col]
+                        .abs()
+                        .total_cmp(&a[y * (m + 1) + col].abs())
+                })
                 .unwrap_or(col);
             if a[piv * (m + 1) + col].abs() < 1e-300 {
                 ok = false;
@@ -211,7 +219,7 @@ fn nnls_small(gg: &[f64], gy: &[f64], k: usize) -> Vec<f64> {
         let mut feasible = true;
         for (r, &jr) in idx.iter().enumerate() {
             let v = a[r * (m + 1) + m] / a[r * (m + 1) + r];
-            if !(v >= 0.0) || !v.is_finite() {
+            if !v.is_finite() || v < 0.0 {
                 feasible = false;
             }
             x[jr] = v;
@@ -260,7 +268,13 @@ pub fn specular_split(t: &BrdfTensor) -> SpecularSplit {
             for o in 0..nd {
                 let y = &mut res[o * nd..(o + 1) * nd];
                 let gy: Vec<f64> = (0..nk)
-                    .map(|k| g[(o * nk + k) * nd..][..nd].iter().zip(y.iter()).map(|(a, b)| a * b).sum())
+                    .map(|k| {
+                        g[(o * nk + k) * nd..][..nd]
+                            .iter()
+                            .zip(y.iter())
+                            .map(|(a, b)| a * b)
+                            .sum()
+                    })
                     .collect();
                 let a = nnls_small(&grams[o], &gy, nk);
                 for k in 0..nk {
@@ -290,7 +304,11 @@ pub fn specular_split(t: &BrdfTensor) -> SpecularSplit {
     SpecularSplit {
         amplitudes,
         residual,
-        specular_fraction: if total > 0.0 { (spec / total).sqrt() } else { 0.0 },
+        specular_fraction: if total > 0.0 {
+            (spec / total).sqrt()
+        } else {
+            0.0
+        },
     }
 }
 
@@ -335,7 +353,12 @@ fn unfold(x: &[f64], dims: (usize, usize, usize), mode: usize) -> Mat<f64> {
 }
 
 /// `x ×_mode U^T` for a tensor `[a][b][c]`, returning the new tensor and its dims.
-fn contract(x: &[f64], dims: (usize, usize, usize), mode: usize, u: &Mat<f64>) -> (Vec<f64>, (usize, usize, usize)) {
+fn contract(
+    x: &[f64],
+    dims: (usize, usize, usize),
+    mode: usize,
+    u: &Mat<f64>,
+) -> (Vec<f64>, (usize, usize, usize)) {
     let (a, b, c) = dims;
     let r = u.ncols();
     match mode {
@@ -417,7 +440,11 @@ pub fn tucker(
         let (t, d) = contract(&t, d, 1, &u[1]);
         let (core, _) = contract(&t, d, 2, &u[2]);
         let c2: f64 = core.iter().map(|v| v * v).sum();
-        let e = if norm2 > 0.0 { ((norm2 - c2).max(0.0) / norm2).sqrt() } else { 0.0 };
+        let e = if norm2 > 0.0 {
+            ((norm2 - c2).max(0.0) / norm2).sqrt()
+        } else {
+            0.0
+        };
         (core, e)
     };
     let (mut core, mut err) = err_of(&u);
@@ -542,7 +569,8 @@ mod tests {
         for h in 0..5 {
             for o in 0..6 {
                 for i in 0..7 {
-                    x[(h * 6 + o) * 7 + i] = a(h, 0) * a(o, 0) * a(i, 0) + 0.5 * a(h, 1) * a(o, 1) * a(i, 1);
+                    x[(h * 6 + o) * 7 + i] =
+                        a(h, 0) * a(o, 0) * a(i, 0) + 0.5 * a(h, 1) * a(o, 1) * a(i, 1);
                 }
             }
         }
