@@ -24,6 +24,8 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
+    /// BRDF basis: error tables per N_b, timings, automatic N_b selection, the report.
+    Basis(prt_bake::basis::cli::BasisArgs),
     /// Benchmarks (figures printed, never asserted).
     #[command(subcommand)]
     Bench(BenchCommand),
@@ -90,6 +92,7 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
+        Some(Command::Basis(args)) => prt_bake::basis::cli::run(&args),
         Some(Command::Bench(BenchCommand::Rays { rays, config, json })) => bench_rays(rays, config, json),
         None => {
             let Some(config) = cli.bake.config.clone() else {
