@@ -109,7 +109,7 @@ pub fn run_pixel(config: &BakeConfig, scene: &Scene, s: &PixelRunSettings) -> Re
         spp: s.spp.unwrap_or(config.spp),
         reflections: config.reflections,
         seed: config.seed,
-        precision: s.precision.unwrap_or(Precision::F16),
+        precision: s.precision.unwrap_or(Precision::F32),
         max_memory: s.max_memory,
         compress_rank: s.compress_rank,
     };

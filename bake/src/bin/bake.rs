@@ -60,8 +60,9 @@ struct BakeArgs {
     /// Output bake file (default: the config's `output`).
     #[arg(long)]
     out: Option<PathBuf>,
-    /// Storage of the transfer tensors: f16 (half the size) or f32.
-    #[arg(long, value_parser = ["f16", "f32"], default_value = "f16")]
+    /// Storage of the transfer tensors: f32 (exact relighting) or f16 (half the size; its
+    /// rounding is amplified by cancellation for sharp lobes, see docs/pixel.md).
+    #[arg(long, value_parser = ["f16", "f32"], default_value = "f32")]
     precision: String,
     /// Refuse to bake when the estimated memory exceeds this (e.g. 4G).
     #[arg(long, value_parser = parse_size)]
@@ -116,7 +117,7 @@ fn bake(config_path: &std::path::Path, a: &BakeArgs) -> Result<()> {
         width: a.width,
         height: a.height,
         output: a.out.clone(),
-        precision: Some(if a.precision == "f32" { Precision::F32 } else { Precision::F16 }),
+        precision: Some(if a.precision == "f16" { Precision::F16 } else { Precision::F32 }),
         max_memory: a.max_memory,
         compress_rank: a.compress_rank,
         basis_count: a.basis_count,
