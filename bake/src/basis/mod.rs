@@ -196,7 +196,7 @@ impl BuiltBasis {
         for n in 0..g.len() {
             tables.push(FRAC_1_PI as f32);
             for b in &self.model.bases {
-                tables.push(b[n] as f32);
+                tables.push(flush_tiny(b[n]));
             }
         }
         let o = &self.model.options;
@@ -220,9 +220,20 @@ impl BuiltBasis {
             coefficients: self
                 .coeffs
                 .iter()
-                .flat_map(|c| c.iter().map(|&x| x as f32))
+                .flat_map(|c| c.iter().map(|&x| flush_tiny(x)))
                 .collect(),
         }
+    }
+}
+
+/// f64 to f32 with magnitudes below 1e-30 flushed to zero: subnormal f32 table entries make
+/// every interpolation that touches them many times slower, and carry no information next to
+/// bases of unit norm.
+fn flush_tiny(x: f64) -> f32 {
+    if x.abs() < 1e-30 {
+        0.0
+    } else {
+        x as f32
     }
 }
 
