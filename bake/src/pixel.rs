@@ -824,6 +824,17 @@ pub fn mean_luminance(rgb: &[f32]) -> f32 {
     luminance(s / n.max(1) as f32)
 }
 
+/// `[rows, cols]` row-major to `[cols, rows]` row-major.
+fn transpose(data: &[f32], rows: usize, cols: usize) -> Vec<f32> {
+    let mut out = vec![0.0f32; data.len()];
+    for (r, row) in data.chunks_exact(cols.max(1)).enumerate().take(rows) {
+        for (c, v) in row.iter().enumerate() {
+            out[c * rows + r] = *v;
+        }
+    }
+    out
+}
+
 /// Tensor names of the per-pixel schema (docs/format.md, "Bake schema").
 pub mod names {
     pub const EMISSION: &str = "emission";
@@ -851,15 +862,27 @@ pub mod names {
 pub fn write_bake_file(bake: &PixelBake, path: &std::path::Path, precision: Precision) -> Result<u64, String> {
     use prt_formats::BakeWriter;
     let mut meta = bake.meta.clone();
-    // Convert first: the writer borrows the buffers.
-    let halves: Vec<Option<Vec<f16>>> = bake
+    // The file stores each group element-major ([row_len, pixels], pixels fastest) so the
+    // runtime streams contiguous columns vectorised across pixels. Convert first: the writer
+    // borrows the buffers.
+    let transposed: Vec<Vec<f32>> = bake
         .groups
         .iter()
+        .zip(&meta.groups)
+        .map(|(g, gm)| transpose(&g.rows, g.pixels.len(), gm.row_len as usize))
+        .collect();
+    let weights_t: Vec<Option<Vec<f32>>> = bake
+        .groups
+        .iter()
+        .map(|g| g.compressed.as_ref().map(|c| transpose(&c.weights, g.pixels.len(), c.rank)))
+        .collect();
+    let halves: Vec<Option<Vec<f16>>> = transposed
+        .iter()
         .zip(meta.groups.iter_mut())
-        .map(|(g, gm)| match precision {
+        .map(|(t, gm)| match precision {
             Precision::F32 => None,
             Precision::F16 => {
-                let (h, scale) = to_f16_scaled(&g.rows);
+                let (h, scale) = to_f16_scaled(t);
                 gm.scale = scale;
                 Some(h)
             }
@@ -878,13 +901,13 @@ pub fn write_bake_file(bake: &PixelBake, path: &std::path::Path, precision: Prec
         let len = gm.row_len as usize;
         w.add_u32(np, &[p], &data.pixels).map_err(err)?;
         match &halves[g] {
-            Some(h) => w.add_f16(nt, &[p, len], h).map_err(err)?,
-            None => w.add_f32(nt, &[p, len], &data.rows).map_err(err)?,
+            Some(h) => w.add_f16(nt, &[len, p], h).map_err(err)?,
+            None => w.add_f32(nt, &[len, p], &transposed[g]).map_err(err)?,
         }
-        if let Some(c) = &data.compressed {
+        if let (Some(c), Some(wt)) = (&data.compressed, &weights_t[g]) {
             w.add_f32(nm, &[len], &c.mean).map_err(err)?;
             w.add_f32(nc, &[c.rank, len], &c.components).map_err(err)?;
-            w.add_f32(nw, &[p, c.rank], &c.weights).map_err(err)?;
+            w.add_f32(nw, &[c.rank, p], wt).map_err(err)?;
         }
     }
     let basis_names: Vec<String> = (0..bake.basis_tables.len()).map(names::basis_tables).collect();

@@ -113,12 +113,12 @@ impl Relighter {
             if pix.as_u32()?.iter().any(|&i| i as usize >= w * h) {
                 return Err(schema(format!("group {g} has a pixel index outside the image")));
             }
-            file.tensor(&format!("g{g}.t"))?.require_shape(&[p, expect])?;
+            file.tensor(&format!("g{g}.t"))?.require_shape(&[expect, p])?;
             if let Some(k) = gm.compressed_rank {
                 let k = k as usize;
                 file.tensor(&format!("g{g}.mean"))?.require_shape(&[expect])?;
                 file.tensor(&format!("g{g}.components"))?.require_shape(&[k, expect])?;
-                file.tensor(&format!("g{g}.weights"))?.require_shape(&[p, k])?;
+                file.tensor(&format!("g{g}.weights"))?.require_shape(&[k, p])?;
             }
         }
         let params = meta.materials.iter().map(|m| m.params()).collect();
@@ -219,6 +219,10 @@ impl Relighter {
     }
 
     /// Relights the image for the current parameters.
+    ///
+    /// The image is cut into bands of rows processed in parallel; each band contracts, for
+    /// every group, the rows of its own pixels (groups store pixels in ascending order) and
+    /// adds them into its part of the image, so no thread writes another's pixels.
     pub fn render(&self, variant: Variant) -> Result<Frame, RuntimeError> {
         if variant == Variant::Compressed && !self.has_compressed() {
             return Err(RuntimeError::NoCompressed);
@@ -228,21 +232,21 @@ impl Relighter {
         let reflections = self.meta.reflections as usize;
         let channels = self.meta.channels as usize;
         let emission = self.file.tensor("emission")?.as_f32()?;
-        let mut pixels: Vec<[f32; 3]> = emission.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
         let mut bytes_read = (emission.len() * 4) as u64;
+        let mut groups = Vec::with_capacity(self.meta.groups.len());
         for (g, gm) in self.meta.groups.iter().enumerate() {
             let m = &self.meta.materials[gm.material as usize];
             let (w, _) = group_weights(gm, m, &coeff, reflections, channels, self.meta.tint);
             let len = gm.row_len as usize;
-            let idx = self.file.tensor(&format!("g{g}.pixels"))?.as_u32()?;
-            bytes_read += (idx.len() * 4) as u64;
-            let values: Vec<[f32; 3]> = match variant {
+            let pixels = self.file.tensor(&format!("g{g}.pixels"))?.as_u32()?;
+            bytes_read += (pixels.len() * 4) as u64;
+            let data = match variant {
                 Variant::Full => {
                     let t = self.file.tensor(&format!("g{g}.t"))?;
                     bytes_read += t.bytes().len() as u64;
                     match t.dtype() {
-                        Dtype::F16 => contract_f16(t.as_f16()?, idx.len(), len, &w, channels, gm.scale),
-                        _ => contract_f32(t.as_f32()?, idx.len(), len, &w, channels),
+                        Dtype::F16 => Rows::F16(t.as_f16()?, gm.scale),
+                        _ => Rows::F32(t.as_f32()?),
                     }
                 }
                 Variant::Compressed => {
@@ -251,16 +255,39 @@ impl Relighter {
                     let comps = self.file.tensor(&format!("g{g}.components"))?.as_f32()?;
                     let z = self.file.tensor(&format!("g{g}.weights"))?.as_f32()?;
                     bytes_read += ((mean.len() + comps.len() + z.len()) * 4) as u64;
-                    contract_compressed(mean, comps, z, idx.len(), k, len, &w)
+                    // Contract the mean and the K components once per frame.
+                    let base = dot3(mean, &w, len);
+                    let s: Vec<[f32; 3]> = (0..k).map(|r| dot3(&comps[r * len..(r + 1) * len], &w, len)).collect();
+                    Rows::Compressed { base, s, z }
                 }
             };
-            for (&p, v) in idx.iter().zip(values) {
-                let o = &mut pixels[p as usize];
-                o[0] += v[0];
-                o[1] += v[1];
-                o[2] += v[2];
-            }
+            groups.push(GroupFrame { pixels, len, w, data });
         }
+        let (width, height) = (self.meta.width as usize, self.meta.height as usize);
+        let mut pixels: Vec<[f32; 3]> = emission.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+        let band = width * BAND_ROWS;
+        pixels.par_chunks_mut(band.max(1)).enumerate().for_each(|(b, out)| {
+            let lo = (b * band) as u32;
+            let hi = lo + out.len() as u32;
+            let mut scratch = Scratch::default();
+            for g in &groups {
+                let first = g.pixels.partition_point(|&p| p < lo);
+                let last = g.pixels.partition_point(|&p| p < hi);
+                let mut i = first;
+                while i < last {
+                    let end = (i + BLOCK).min(last);
+                    let acc = g.contract_block(i, end, &mut scratch);
+                    for (k, p) in g.pixels[i..end].iter().enumerate() {
+                        let o = &mut out[(p - lo) as usize];
+                        o[0] += acc[0][k];
+                        o[1] += acc[1][k];
+                        o[2] += acc[2][k];
+                    }
+                    i = end;
+                }
+            }
+        });
+        debug_assert_eq!(pixels.len(), width * height);
         Ok(Frame {
             width: self.meta.width,
             height: self.meta.height,
@@ -271,93 +298,100 @@ impl Relighter {
     }
 }
 
-/// Rows per parallel work item.
-const ROWS_PER_TASK: usize = 256;
+/// Image rows per parallel band.
+const BAND_ROWS: usize = 8;
+/// Pixels contracted together: their three accumulators stay in L1 while the columns stream.
+const BLOCK: usize = 256;
 
-/// `sum_e W[c][e] x[e]` for every row. With 3 channels the tensor is RGB and channel c only
-/// meets elements e = 3i + c.
-fn dot_row(x: &[f32], w: &[f32], len: usize, channels: usize) -> [f32; 3] {
-    let (w0, w1, w2) = (&w[..len], &w[len..2 * len], &w[2 * len..3 * len]);
-    let mut a = [0.0f32; 3];
-    if channels == 1 {
-        for e in 0..len {
-            let v = x[e];
-            a[0] += w0[e] * v;
-            a[1] += w1[e] * v;
-            a[2] += w2[e] * v;
-        }
-    } else {
-        for t in (0..len).step_by(3) {
-            a[0] += w0[t] * x[t];
-            a[1] += w1[t + 1] * x[t + 1];
-            a[2] += w2[t + 2] * x[t + 2];
-        }
-    }
-    a
-}
-
-fn contract_f32(t: &[f32], pixels: usize, len: usize, w: &[f32], channels: usize) -> Vec<[f32; 3]> {
-    if len == 0 {
-        return vec![[0.0; 3]; pixels];
-    }
-    t.par_chunks(len * ROWS_PER_TASK)
-        .flat_map_iter(|chunk| chunk.chunks_exact(len).map(|x| dot_row(x, w, len, channels)))
-        .collect()
-}
-
-fn contract_f16(t: &[f16], pixels: usize, len: usize, w: &[f32], channels: usize, scale: f32) -> Vec<[f32; 3]> {
-    if len == 0 {
-        return vec![[0.0; 3]; pixels];
-    }
-    t.par_chunks(len * ROWS_PER_TASK)
-        .flat_map_iter(|chunk| {
-            let mut buf = vec![0.0f32; len];
-            chunk
-                .chunks_exact(len)
-                .map(|x| {
-                    x.convert_to_f32_slice(&mut buf);
-                    dot_row(&buf, w, len, channels).map(|v| v * scale)
-                })
-                .collect::<Vec<_>>()
-        })
-        .collect()
-}
-
-fn contract_compressed(
-    mean: &[f32],
-    comps: &[f32],
-    z: &[f32],
-    pixels: usize,
-    k: usize,
+/// One group's data for a frame.
+struct GroupFrame<'a> {
+    pixels: &'a [u32],
     len: usize,
-    w: &[f32],
-) -> Vec<[f32; 3]> {
-    let dot = |x: &[f32]| -> [f32; 3] {
-        let mut a = [0.0f32; 3];
-        for e in 0..len {
-            a[0] += w[e] * x[e];
-            a[1] += w[len + e] * x[e];
-            a[2] += w[2 * len + e] * x[e];
+    /// Contraction weights, 3 x len (channel-major).
+    w: Vec<f32>,
+    data: Rows<'a>,
+}
+
+/// A group's values, stored element-major: value e of pixel i at `e * pixels + i`.
+enum Rows<'a> {
+    F32(&'a [f32]),
+    F16(&'a [f16], f32),
+    /// Low rank: radiance = base + sum_r z[r, i] s[r].
+    Compressed {
+        base: [f32; 3],
+        s: Vec<[f32; 3]>,
+        z: &'a [f32],
+    },
+}
+
+/// Per-band working memory.
+#[derive(Default)]
+struct Scratch {
+    acc: [Vec<f32>; 3],
+    column: Vec<f32>,
+}
+
+impl GroupFrame<'_> {
+    /// Radiance of the group's pixels `i0..i1` (at most [`BLOCK`]), per channel.
+    fn contract_block<'s>(&self, i0: usize, i1: usize, sc: &'s mut Scratch) -> &'s [Vec<f32>; 3] {
+        let n = i1 - i0;
+        let np = self.pixels.len();
+        for a in sc.acc.iter_mut() {
+            a.clear();
+            a.resize(n, 0.0);
         }
-        a
-    };
-    let base = dot(mean);
-    let s: Vec<[f32; 3]> = (0..k).map(|r| dot(&comps[r * len..(r + 1) * len])).collect();
-    if k == 0 {
-        return vec![base; pixels];
-    }
-    z.par_chunks(k * ROWS_PER_TASK)
-        .flat_map_iter(|chunk| {
-            let s = &s;
-            chunk.chunks_exact(k).map(move |zp| {
-                let mut a = base;
-                for (zr, sr) in zp.iter().zip(s) {
-                    a[0] += zr * sr[0];
-                    a[1] += zr * sr[1];
-                    a[2] += zr * sr[2];
+        if let Rows::Compressed { base, .. } = &self.data {
+            for (a, b) in sc.acc.iter_mut().zip(base) {
+                a.fill(*b);
+            }
+        }
+        let [a0, a1, a2] = &mut sc.acc;
+        let mut axpy3 = |col: &[f32], w: [f32; 3]| {
+            for (((x, o0), o1), o2) in col.iter().zip(a0.iter_mut()).zip(a1.iter_mut()).zip(a2.iter_mut()) {
+                *o0 += w[0] * x;
+                *o1 += w[1] * x;
+                *o2 += w[2] * x;
+            }
+        };
+        let len = self.len;
+        let w = &self.w;
+        match &self.data {
+            Rows::F32(t) => {
+                for e in 0..len {
+                    let we = [w[e], w[len + e], w[2 * len + e]];
+                    if we != [0.0; 3] {
+                        axpy3(&t[e * np + i0..e * np + i1], we);
+                    }
                 }
-                a
-            })
-        })
-        .collect()
+            }
+            Rows::F16(t, scale) => {
+                sc.column.resize(n, 0.0);
+                for e in 0..len {
+                    let we = [w[e] * scale, w[len + e] * scale, w[2 * len + e] * scale];
+                    if we != [0.0; 3] {
+                        t[e * np + i0..e * np + i1].convert_to_f32_slice(&mut sc.column);
+                        axpy3(&sc.column, we);
+                    }
+                }
+            }
+            Rows::Compressed { s, z, .. } => {
+                for (r, sr) in s.iter().enumerate() {
+                    axpy3(&z[r * np + i0..r * np + i1], *sr);
+                }
+            }
+        }
+        &sc.acc
+    }
+}
+
+/// `sum_e W[c][e] x[e]` for the three output channels (`w` is 3 x len, channel-major), used
+/// once per frame to contract the low-rank mean and components.
+fn dot3(x: &[f32], w: &[f32], len: usize) -> [f32; 3] {
+    let mut out = [0.0f32; 3];
+    for e in 0..len {
+        out[0] += w[e] * x[e];
+        out[1] += w[len + e] * x[e];
+        out[2] += w[2 * len + e] * x[e];
+    }
+    out
 }

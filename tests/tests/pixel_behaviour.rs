@@ -85,10 +85,12 @@ fn indirect_edit_leaves_pixels_without_its_light_unchanged() {
             }
             continue;
         };
+        // Stored element-major: value e of pixel k at e * pixels + k.
+        let np = pix.len();
+        assert_eq!(t.len(), len * np);
         for (k, &p) in pix.iter().enumerate() {
-            let row = &t[k * len..(k + 1) * len];
             let uses = (0..gm.slots as usize).any(|b0| {
-                row[prt_formats::pixel::element_index(gm.slots as usize, jn, 1, b0, &[ja], 0)] != 0.0
+                t[prt_formats::pixel::element_index(gm.slots as usize, jn, 1, b0, &[ja], 0) * np + k] != 0.0
             });
             if uses || gm.material == block_idx {
                 involved[p as usize] = true;
