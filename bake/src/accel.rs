@@ -3,10 +3,10 @@
 
 use glam::{Vec2, Vec3, Vec3A};
 use obvhs::{
-    BvhBuildParams,
-    cwbvh::{CwBvh, builder::build_cwbvh_from_tris},
+    cwbvh::{builder::build_cwbvh_from_tris, CwBvh},
     ray::{Ray, RayHit},
     triangle::Triangle,
+    BvhBuildParams,
 };
 
 use crate::scene::Scene;

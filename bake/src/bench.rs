@@ -7,17 +7,27 @@ use rayon::prelude::*;
 
 use crate::accel::Accel;
 use crate::brdf::BrdfParams;
-use crate::sampling::{Rng, uniform_sphere};
+use crate::sampling::{uniform_sphere, Rng};
 use crate::scene::Scene;
-use crate::testing::{SceneBuilder, look_at};
+use crate::testing::{look_at, SceneBuilder};
 
 /// About 100K triangles: five subdivided spheres on a floor, seen by a camera.
 pub fn hundred_k_scene() -> Scene {
     let mut b = SceneBuilder::new();
-    let m = b.material("grey", BrdfParams::diffuse(Vec3::splat(0.5)), Vec3::ZERO, false);
+    let m = b.material(
+        "grey",
+        BrdfParams::diffuse(Vec3::splat(0.5)),
+        Vec3::ZERO,
+        false,
+    );
     for i in 0..5 {
         let x = (i as f32 - 2.0) * 1.1;
-        b.sphere(Vec3::new(x, 0.5 + 0.1 * i as f32, -(i % 2) as f32 * 0.7), 0.5, 5, m);
+        b.sphere(
+            Vec3::new(x, 0.5 + 0.1 * i as f32, -(i % 2) as f32 * 0.7),
+            0.5,
+            5,
+            m,
+        );
     }
     b.quad(
         [
@@ -28,7 +38,12 @@ pub fn hundred_k_scene() -> Scene {
         ],
         m,
     );
-    b.camera(look_at(Vec3::new(0.0, 1.5, 4.5), Vec3::new(0.0, 0.4, 0.0), Vec3::Y, 45f32.to_radians()));
+    b.camera(look_at(
+        Vec3::new(0.0, 1.5, 4.5),
+        Vec3::new(0.0, 0.4, 0.0),
+        Vec3::Y,
+        45f32.to_radians(),
+    ));
     b.build()
 }
 
@@ -45,7 +60,10 @@ pub struct RayFigures {
 /// Ray batches: coherent = the camera's primary rays in scanline order; incoherent = random
 /// origins inside the scene bounds with uniformly random directions.
 fn ray_batch(scene: &Scene, coherent: bool, n: usize) -> Vec<(Vec3, Vec3)> {
-    let (lo, hi) = scene.positions.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), p| (a.min(*p), b.max(*p)));
+    let (lo, hi) = scene.positions.iter().fold(
+        (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)),
+        |(a, b), p| (a.min(*p), b.max(*p)),
+    );
     let side = (n as f64).sqrt().ceil() as u32;
     let cam = &scene.camera;
     let t = (cam.yfov * 0.5).tan();
@@ -53,10 +71,16 @@ fn ray_batch(scene: &Scene, coherent: bool, n: usize) -> Vec<(Vec3, Vec3)> {
     (0..n)
         .map(|i| {
             if coherent {
-                let (x, y) = ((i as u32 % side) as f32 + 0.5, (i as u32 / side) as f32 + 0.5);
+                let (x, y) = (
+                    (i as u32 % side) as f32 + 0.5,
+                    (i as u32 / side) as f32 + 0.5,
+                );
                 let sx = (2.0 * x / side as f32 - 1.0) * t;
                 let sy = (1.0 - 2.0 * y / side as f32) * t;
-                (cam.position, (cam.forward + cam.right * sx + cam.up * sy).normalize())
+                (
+                    cam.position,
+                    (cam.forward + cam.right * sx + cam.up * sy).normalize(),
+                )
             } else {
                 let o = lo + (hi - lo) * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
                 (o, uniform_sphere(rng.next_vec2()))

@@ -19,7 +19,7 @@ use glam::{Vec2, Vec3};
 
 use crate::accel::{Accel, Hit};
 use crate::brdf::BrdfSample;
-use crate::lights::{LightSet, orthonormal_basis};
+use crate::lights::{orthonormal_basis, LightSet};
 use crate::sampling::Rng;
 use crate::scene::Scene;
 
@@ -271,9 +271,8 @@ impl<'a> Integrator<'a> {
             }
 
             // Next-event estimation: area lights.
-            if let Some((ls, tri, bary)) = self
-                .lights
-                .sample_area(self.scene, surf.p, u_pick, u_area)
+            if let Some((ls, tri, bary)) =
+                self.lights.sample_area(self.scene, surf.p, u_pick, u_area)
             {
                 let wi = surf.to_local(ls.wi);
                 if wi.z > 0.0 && ls.wi.dot(surf.ng) > 0.0 {
@@ -344,7 +343,7 @@ impl<'a> Integrator<'a> {
                 break;
             };
             let wi_world = surf.to_world(bs.wi).normalize();
-            if bs.wi.z <= 0.0 || wi_world.dot(surf.ng) <= 0.0 || !(bs.pdf > 0.0) {
+            if bs.wi.z <= 0.0 || wi_world.dot(surf.ng) <= 0.0 || bs.pdf.is_nan() || bs.pdf <= 0.0 {
                 break;
             }
             model.eval(&surf, depth, wo, bs.wi, &mut slots);

@@ -8,7 +8,7 @@
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
-use crate::sampling::{Distribution1D, uniform_triangle};
+use crate::sampling::{uniform_triangle, Distribution1D};
 use crate::scene::{Environment, PunctualLight, Scene};
 
 /// Relative luminance of linear sRGB primaries.
@@ -158,12 +158,23 @@ impl LightSet {
         let tri = scene.triangles[triangle as usize];
         let [na, nb, nc] = tri.map(|v| scene.normals[v as usize]);
         let ns = na * (1.0 - bary.x - bary.y) + nb * bary.x + nc * bary.y;
-        if ns.dot(ng) < 0.0 { -ng } else { ng }
+        if ns.dot(ng) < 0.0 {
+            -ng
+        } else {
+            ng
+        }
     }
 
     /// True when a ray arriving along `dir` at the given point of an emissive triangle sees
     /// its emitting side.
-    pub fn emits_towards(&self, scene: &Scene, triangle: u32, ng: Vec3, bary: Vec2, dir: Vec3) -> bool {
+    pub fn emits_towards(
+        &self,
+        scene: &Scene,
+        triangle: u32,
+        ng: Vec3,
+        bary: Vec2,
+        dir: Vec3,
+    ) -> bool {
         self.emitting_normal(scene, triangle, ng, bary).dot(dir) < 0.0
     }
 
@@ -247,7 +258,7 @@ impl LightSet {
             } => {
                 let to = position - p;
                 let d2 = to.length_squared();
-                if !(d2 > 0.0) {
+                if d2.is_nan() || d2 <= 0.0 {
                     return None;
                 }
                 let d = d2.sqrt();
@@ -267,7 +278,7 @@ impl LightSet {
             } => {
                 let to = position - p;
                 let d2 = to.length_squared();
-                if !(d2 > 0.0) {
+                if d2.is_nan() || d2 <= 0.0 {
                     return None;
                 }
                 let d = d2.sqrt();

@@ -13,15 +13,18 @@ use glam::Vec3;
 use half::f16;
 use prt_formats::basis::BrdfBasis;
 use prt_formats::pixel::{
-    BasisMeta, CameraMeta, GroupMeta, MaterialMeta, MaterialParams, PIXEL_SCHEMA_VERSION,
-    PixelBakeMeta, SlotKind, row_len, slot_coefficients,
+    row_len, slot_coefficients, BasisMeta, CameraMeta, GroupMeta, MaterialMeta, MaterialParams,
+    PixelBakeMeta, SlotKind, PIXEL_SCHEMA_VERSION,
 };
 use rayon::prelude::*;
 
 use crate::accel::Accel;
-use crate::brdf::{BrdfSample, Family, cosine_hemisphere, reflect, sample_blinn_phong_half, sample_ggx_half, specular_lobe_pdf};
-use crate::integrator::{Integrator, MAX_SLOTS, MaterialModel, PathSink, Slots, Surface};
-use crate::lights::{LightSet, luminance};
+use crate::brdf::{
+    cosine_hemisphere, reflect, sample_blinn_phong_half, sample_ggx_half, specular_lobe_pdf,
+    BrdfSample, Family,
+};
+use crate::integrator::{Integrator, MaterialModel, PathSink, Slots, Surface, MAX_SLOTS};
+use crate::lights::{luminance, LightSet};
 use crate::sampling::Rng;
 use crate::scene::{Environment, Scene};
 
@@ -76,7 +79,7 @@ fn common_chromaticity(colours: &[Vec3]) -> Option<Vec3> {
     let mut common: Option<Vec3> = None;
     for &c in colours {
         let m = c.max_element();
-        if !(m > 0.0) {
+        if m.is_nan() || m <= 0.0 {
             continue;
         }
         let k = c / m;
@@ -128,11 +131,18 @@ impl SlotLayout {
                     "editable {}: {} basis BRDFs{}",
                     b.family.name(),
                     basis.num_bases,
-                    if textured { " + a textured Kd slot" } else { "" }
+                    if textured {
+                        " + a textured Kd slot"
+                    } else {
+                        ""
+                    }
                 );
                 (s, why)
             } else if m.editable {
-                (vec![SlotKind::Kd], "editable diffuse: 1 slot (Kd)".to_string())
+                (
+                    vec![SlotKind::Kd],
+                    "editable diffuse: 1 slot (Kd)".to_string(),
+                )
             } else {
                 let mut s = Vec::new();
                 if b.kd != Vec3::ZERO {
@@ -195,10 +205,18 @@ impl SlotLayout {
         let textured = materials.iter().any(|m| m.textured && !m.slots.is_empty());
         let single_tint = tint.is_some() && !emissive_texture;
         let channels = if single_tint && !textured { 1 } else { 3 };
-        let tint = if channels == 1 { tint.unwrap_or(Vec3::ONE) } else { Vec3::ONE };
+        let tint = if channels == 1 {
+            tint.unwrap_or(Vec3::ONE)
+        } else {
+            Vec3::ONE
+        };
         reasons.push(format!(
             "tensors: {} ({})",
-            if channels == 1 { "gray (1 channel)" } else { "RGB (3 channels)" },
+            if channels == 1 {
+                "gray (1 channel)"
+            } else {
+                "RGB (3 channels)"
+            },
             if channels == 1 {
                 "one light colour, factored out; no textures: colours live in the coefficients"
             } else if !single_tint {
@@ -237,13 +255,19 @@ impl SlotLayout {
     }
 
     /// The same coefficients per material, as the reference renderer's contraction wants.
-    pub fn coefficients_per_material(&self, overrides: &[(usize, MaterialParams)]) -> Vec<Vec<Vec3>> {
+    pub fn coefficients_per_material(
+        &self,
+        overrides: &[(usize, MaterialParams)],
+    ) -> Vec<Vec<Vec3>> {
         let flat = self.coefficients(overrides);
         self.materials
             .iter()
             .map(|m| {
                 let o = m.slot_offset as usize;
-                flat[o..o + m.slots.len()].iter().map(|c| Vec3::from_array(*c)).collect()
+                flat[o..o + m.slots.len()]
+                    .iter()
+                    .map(|c| Vec3::from_array(*c))
+                    .collect()
             })
             .collect()
     }
@@ -283,7 +307,10 @@ impl<'a> BakeModel<'a> {
             .map(|(m, meta)| {
                 let basis = meta.basis.map(|b| &layout.bases[b as usize])?;
                 let f = m.brdf.family;
-                let p = m.brdf.param.clamp(basis.param_range[0], basis.param_range[1]);
+                let p = m
+                    .brdf
+                    .param
+                    .clamp(basis.param_range[0], basis.param_range[1]);
                 Some((f, mixture_params(f, p, basis)))
             })
             .collect();
@@ -324,7 +351,11 @@ impl MaterialModel for BakeModel<'_> {
         }
         let mut basis_vals = [0.0f32; MAX_SLOTS];
         if let Some(b) = meta.basis {
-            self.layout.bases[b as usize].eval_all_local(wi.to_array(), wo.to_array(), &mut basis_vals);
+            self.layout.bases[b as usize].eval_all_local(
+                wi.to_array(),
+                wo.to_array(),
+                &mut basis_vals,
+            );
         }
         let m = &self.scene.materials[s.material as usize];
         for (k, slot) in meta.slots.iter().enumerate() {
@@ -429,7 +460,12 @@ impl PathSink for TensorSink<'_> {
         let idx = match self.rows.iter().position(|(m, _)| *m == s.material) {
             Some(i) => i,
             None => {
-                let len = row_len(n0, self.layout.total_slots, self.reflections, self.layout.channels);
+                let len = row_len(
+                    n0,
+                    self.layout.total_slots,
+                    self.reflections,
+                    self.layout.channels,
+                );
                 self.rows.push((s.material, vec![0.0; len]));
                 self.rows.len() - 1
             }
@@ -542,7 +578,11 @@ pub struct MemoryEstimate {
 
 /// Counts the materials visible per pixel with a few primary rays per pixel, and sizes the
 /// dense accumulation rows from that.
-pub fn estimate_memory(integ: &Integrator, layout: &SlotLayout, reflections: usize) -> MemoryEstimate {
+pub fn estimate_memory(
+    integ: &Integrator,
+    layout: &SlotLayout,
+    reflections: usize,
+) -> MemoryEstimate {
     let n = layout.materials.len();
     let (w, h) = (integ.width, integ.height);
     let counts = (0..h)
@@ -565,11 +605,21 @@ pub fn estimate_memory(integ: &Integrator, layout: &SlotLayout, reflections: usi
             }
             counts
         })
-        .reduce(|| vec![0u64; n], |a, b| a.iter().zip(&b).map(|(x, y)| x + y).collect());
+        .reduce(
+            || vec![0u64; n],
+            |a, b| a.iter().zip(&b).map(|(x, y)| x + y).collect(),
+        );
     let values: Vec<usize> = layout
         .materials
         .iter()
-        .map(|m| row_len(m.slots.len(), layout.total_slots, reflections, layout.channels))
+        .map(|m| {
+            row_len(
+                m.slots.len(),
+                layout.total_slots,
+                reflections,
+                layout.channels,
+            )
+        })
         .collect();
     let bytes = counts
         .iter()
@@ -735,7 +785,13 @@ pub fn bake(
 }
 
 /// Global slots j that appear with a nonzero value anywhere in the group's T1/T2 blocks.
-fn active_slots(rows: &[Vec<f32>], n0: usize, jn: usize, reflections: usize, c: usize) -> Vec<usize> {
+fn active_slots(
+    rows: &[Vec<f32>],
+    n0: usize,
+    jn: usize,
+    reflections: usize,
+    c: usize,
+) -> Vec<usize> {
     let mut used = vec![false; jn];
     for row in rows {
         let mut off = n0 * c; // skip T0
@@ -809,9 +865,16 @@ fn compress(rows: &[f32], n: usize, len: usize, k: usize) -> Compressed {
 /// 2^14. Returns (data, scale).
 pub fn to_f16_scaled(values: &[f32]) -> (Vec<f16>, f32) {
     let max = values.iter().fold(0.0f32, |m, v| m.max(v.abs()));
-    let scale = if max > 0.0 && max.is_finite() { max / 16384.0 } else { 1.0 };
+    let scale = if max > 0.0 && max.is_finite() {
+        max / 16384.0
+    } else {
+        1.0
+    };
     let inv = 1.0 / scale;
-    (values.iter().map(|v| f16::from_f32(v * inv)).collect(), scale)
+    (
+        values.iter().map(|v| f16::from_f32(v * inv)).collect(),
+        scale,
+    )
 }
 
 /// Luminance of the emission image's mean (for reports).
@@ -859,7 +922,11 @@ pub mod names {
 }
 
 /// Writes the bake file atomically; returns its size in bytes.
-pub fn write_bake_file(bake: &PixelBake, path: &std::path::Path, precision: Precision) -> Result<u64, String> {
+pub fn write_bake_file(
+    bake: &PixelBake,
+    path: &std::path::Path,
+    precision: Precision,
+) -> Result<u64, String> {
     use prt_formats::BakeWriter;
     let mut meta = bake.meta.clone();
     // The file stores each group element-major ([row_len, pixels], pixels fastest) so the
@@ -874,7 +941,11 @@ pub fn write_bake_file(bake: &PixelBake, path: &std::path::Path, precision: Prec
     let weights_t: Vec<Option<Vec<f32>>> = bake
         .groups
         .iter()
-        .map(|g| g.compressed.as_ref().map(|c| transpose(&c.weights, g.pixels.len(), c.rank)))
+        .map(|g| {
+            g.compressed
+                .as_ref()
+                .map(|c| transpose(&c.weights, g.pixels.len(), c.rank))
+        })
         .collect();
     let halves: Vec<Option<Vec<f16>>> = transposed
         .iter()
@@ -891,9 +962,18 @@ pub fn write_bake_file(bake: &PixelBake, path: &std::path::Path, precision: Prec
     let mut w = BakeWriter::new();
     let err = |e: prt_formats::FormatError| e.to_string();
     let (wd, ht) = (meta.width as usize, meta.height as usize);
-    w.add_f32(names::EMISSION, &[ht, wd, 3], &bake.emission).map_err(err)?;
+    w.add_f32(names::EMISSION, &[ht, wd, 3], &bake.emission)
+        .map_err(err)?;
     let names_p: Vec<[String; 5]> = (0..bake.groups.len())
-        .map(|g| [names::pixels(g), names::transfer(g), names::mean(g), names::components(g), names::weights(g)])
+        .map(|g| {
+            [
+                names::pixels(g),
+                names::transfer(g),
+                names::mean(g),
+                names::components(g),
+                names::weights(g),
+            ]
+        })
         .collect();
     for (g, (data, gm)) in bake.groups.iter().zip(&meta.groups).enumerate() {
         let [np, nt, nm, nc, nw] = &names_p[g];
@@ -910,10 +990,13 @@ pub fn write_bake_file(bake: &PixelBake, path: &std::path::Path, precision: Prec
             w.add_f32(nw, &[c.rank, p], wt).map_err(err)?;
         }
     }
-    let basis_names: Vec<String> = (0..bake.basis_tables.len()).map(names::basis_tables).collect();
+    let basis_names: Vec<String> = (0..bake.basis_tables.len())
+        .map(names::basis_tables)
+        .collect();
     for (b, t) in bake.basis_tables.iter().enumerate() {
         let nb = meta.bases[b].basis.num_bases;
-        w.add_f32(&basis_names[b], &[t.len() / nb.max(1), nb], t).map_err(err)?;
+        w.add_f32(&basis_names[b], &[t.len() / nb.max(1), nb], t)
+            .map_err(err)?;
     }
     w.set_metadata(meta.to_json());
     let size = w.file_len().map_err(err)?;

@@ -35,7 +35,10 @@ impl<'a> TrueBrdfModel<'a> {
     fn brdf_at(&self, s: &Surface) -> BrdfParams {
         let mut b = self.brdfs[s.material as usize];
         let m = &self.scene.materials[s.material as usize];
-        if let Some(t) = m.base_color_texture.and_then(|t| self.scene.textures.get(t)) {
+        if let Some(t) = m
+            .base_color_texture
+            .and_then(|t| self.scene.textures.get(t))
+        {
             b.kd *= t.sample(s.uv);
         }
         b

@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use prt_formats::basis::BrdfBasis;
 
@@ -20,9 +20,10 @@ pub const DEFAULT_BASIS_COUNT: usize = 6;
 /// A progress bar on stderr over `len` steps (hidden when stderr is not a terminal).
 pub fn progress_bar(len: u64, what: &str) -> ProgressBar {
     let bar = ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::stderr());
-    let style = ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} rows, {elapsed} (eta {eta})")
-        .unwrap_or_else(|_| ProgressStyle::default_bar())
-        .progress_chars("=> ");
+    let style =
+        ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} rows, {elapsed} (eta {eta})")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> ");
     bar.set_style(style);
     bar.set_message(what.to_string());
     bar
@@ -33,7 +34,10 @@ pub fn load(config_path: &Path) -> Result<(BakeConfig, Scene)> {
     let config = BakeConfig::from_file(config_path)?;
     let scene = crate::scene::load(&config)?;
     if scene.triangles.is_empty() {
-        bail!("{}: the scene has no valid triangles", config.scene_path.display());
+        bail!(
+            "{}: the scene has no valid triangles",
+            config.scene_path.display()
+        );
     }
     Ok((config, scene))
 }
@@ -94,11 +98,18 @@ pub struct PixelRunSummary {
 }
 
 /// Runs a per-pixel bake for a config.
-pub fn run_pixel(config: &BakeConfig, scene: &Scene, s: &PixelRunSettings) -> Result<PixelRunSummary> {
+pub fn run_pixel(
+    config: &BakeConfig,
+    scene: &Scene,
+    s: &PixelRunSettings,
+) -> Result<PixelRunSummary> {
     let start = Instant::now();
     let count = s
         .basis_count
-        .or(config.basis.as_ref().and_then(|b| b.count.map(|c| c as usize)))
+        .or(config
+            .basis
+            .as_ref()
+            .and_then(|b| b.count.map(|c| c as usize)))
         .unwrap_or(DEFAULT_BASIS_COUNT);
     let bases = build_bases(scene, count, !s.quiet)?;
     let basis_seconds = start.elapsed().as_secs_f64();
@@ -137,7 +148,11 @@ pub fn run_pixel(config: &BakeConfig, scene: &Scene, s: &PixelRunSettings) -> Re
         for r in &layout.reasons {
             eprintln!("  {r}");
         }
-        for (m, (&p, &v)) in layout.materials.iter().zip(est.pixels_per_material.iter().zip(&est.values_per_pixel)) {
+        for (m, (&p, &v)) in layout
+            .materials
+            .iter()
+            .zip(est.pixels_per_material.iter().zip(&est.values_per_pixel))
+        {
             if p > 0 {
                 eprintln!("  {}: ~{p} pixels x {v} values", m.name);
             }
@@ -198,7 +213,11 @@ pub fn parse_size(s: &str) -> Result<u64, String> {
                 'M' => 1 << 20,
                 'G' => 1 << 30,
                 'T' => 1 << 40,
-                _ => return Err(format!("'{s}': unknown size suffix '{c}' (use K, M, G or T)")),
+                _ => {
+                    return Err(format!(
+                        "'{s}': unknown size suffix '{c}' (use K, M, G or T)"
+                    ))
+                }
             };
             (&t[..i], mul)
         }
@@ -225,7 +244,13 @@ pub fn apply_override(scene: &mut Scene, o: &prt_formats::MaterialOverride) -> R
     };
     let b = &mut scene.materials[i].brdf;
     let family = b.family;
-    let wrong = |p: &str| anyhow::anyhow!("material '{}' is {}: it has no parameter '{p}'", o.material, family.name());
+    let wrong = |p: &str| {
+        anyhow::anyhow!(
+            "material '{}' is {}: it has no parameter '{p}'",
+            o.material,
+            family.name()
+        )
+    };
     match o.value {
         OverrideValue::Kd(c) => b.kd = glam::Vec3::from_array(c),
         OverrideValue::Ks(c) if family != Family::Diffuse => b.ks = glam::Vec3::from_array(c),

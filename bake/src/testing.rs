@@ -28,7 +28,12 @@ impl SceneBuilder {
                 materials: Vec::new(),
                 textures: Vec::new(),
                 lights: Vec::new(),
-                camera: look_at(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, Vec3::Y, 45f32.to_radians()),
+                camera: look_at(
+                    Vec3::new(0.0, 0.0, 3.0),
+                    Vec3::ZERO,
+                    Vec3::Y,
+                    45f32.to_radians(),
+                ),
                 environment: Environment::Constant(Vec3::ZERO),
                 skipped_triangles: 0,
             },
@@ -36,7 +41,13 @@ impl SceneBuilder {
     }
 
     /// Adds a material; returns its index.
-    pub fn material(&mut self, name: &str, brdf: BrdfParams, emission: Vec3, editable: bool) -> u32 {
+    pub fn material(
+        &mut self,
+        name: &str,
+        brdf: BrdfParams,
+        emission: Vec3,
+        editable: bool,
+    ) -> u32 {
         self.scene.materials.push(Material {
             name: name.to_string(),
             brdf,
@@ -49,11 +60,19 @@ impl SceneBuilder {
     }
 
     /// Adds a mesh with per-vertex normals (zero UVs).
-    pub fn mesh(&mut self, positions: &[Vec3], normals: &[Vec3], triangles: &[[u32; 3]], material: u32) {
+    pub fn mesh(
+        &mut self,
+        positions: &[Vec3],
+        normals: &[Vec3],
+        triangles: &[[u32; 3]],
+        material: u32,
+    ) {
         let base = self.scene.positions.len() as u32;
         self.scene.positions.extend_from_slice(positions);
         self.scene.normals.extend_from_slice(normals);
-        self.scene.uvs.extend(std::iter::repeat_n(Vec2::ZERO, positions.len()));
+        self.scene
+            .uvs
+            .extend(std::iter::repeat_n(Vec2::ZERO, positions.len()));
         for t in triangles {
             self.scene.triangles.push(t.map(|i| i + base));
             self.scene.triangle_material.push(material);
@@ -63,7 +82,9 @@ impl SceneBuilder {
     /// A planar quad with corners in order (counter-clockwise seen from the side its normal
     /// `n` points to).
     pub fn quad(&mut self, corners: [Vec3; 4], material: u32) {
-        let n = (corners[1] - corners[0]).cross(corners[2] - corners[0]).normalize();
+        let n = (corners[1] - corners[0])
+            .cross(corners[2] - corners[0])
+            .normalize();
         self.mesh(&corners, &[n; 4], &[[0, 1, 2], [0, 2, 3]], material);
     }
 
@@ -175,6 +196,11 @@ pub fn furnace_scene(albedo: Vec3, env: Vec3) -> Scene {
     let m = b.material("sphere", BrdfParams::diffuse(albedo), Vec3::ZERO, false);
     b.sphere(Vec3::ZERO, 1.0, 5, m);
     b.environment(Environment::Constant(env));
-    b.camera(look_at(Vec3::new(0.0, 0.0, 4.0), Vec3::ZERO, Vec3::Y, 35f32.to_radians()));
+    b.camera(look_at(
+        Vec3::new(0.0, 0.0, 4.0),
+        Vec3::ZERO,
+        Vec3::Y,
+        35f32.to_radians(),
+    ));
     b.build()
 }

@@ -2,14 +2,15 @@
 
 use glam::Vec3;
 use obvhs::triangle::Triangle;
-use prt_bake::accel::{Accel, brute_force_intersect};
-use prt_bake::sampling::{Rng, uniform_sphere};
+use prt_bake::accel::{brute_force_intersect, Accel};
+use prt_bake::sampling::{uniform_sphere, Rng};
 
 fn random_triangles(n: usize, rng: &mut Rng) -> Vec<Triangle> {
     (0..n)
         .map(|_| {
             let c = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 4.0 - 2.0;
-            let mut v = || c + (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * 0.6;
+            let mut v =
+                || c + (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * 0.6;
             Triangle {
                 v0: v().into(),
                 v1: v().into(),
@@ -34,7 +35,12 @@ fn bvh_closest_hit_equals_brute_force() {
             (None, None) => {}
             (Some(a), Some(b)) => {
                 hits += 1;
-                assert!((a.t - b.t).abs() <= 1e-5 * b.t.max(1.0), "t {} vs {}", a.t, b.t);
+                assert!(
+                    (a.t - b.t).abs() <= 1e-5 * b.t.max(1.0),
+                    "t {} vs {}",
+                    a.t,
+                    b.t
+                );
                 if a.triangle != b.triangle {
                     // Only acceptable for an exact tie in distance.
                     assert_eq!(a.t, b.t);
@@ -56,6 +62,8 @@ fn bvh_closest_hit_equals_brute_force() {
 #[test]
 fn empty_scene_has_no_hits() {
     let accel = Accel::from_triangles(&[]);
-    assert!(accel.intersect(Vec3::ZERO, Vec3::X, 0.0, f32::INFINITY).is_none());
+    assert!(accel
+        .intersect(Vec3::ZERO, Vec3::X, 0.0, f32::INFINITY)
+        .is_none());
     assert!(!accel.occluded(Vec3::ZERO, Vec3::X, 0.0, f32::INFINITY));
 }

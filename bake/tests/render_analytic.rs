@@ -5,16 +5,29 @@ use prt_bake::accel::Accel;
 use prt_bake::brdf::BrdfParams;
 use prt_bake::integrator::Integrator;
 use prt_bake::lights::LightSet;
-use prt_bake::reference::{TrueBrdfModel, render, unit_coefficients};
+use prt_bake::reference::{render, unit_coefficients, TrueBrdfModel};
 use prt_bake::scene::Scene;
-use prt_bake::testing::{SceneBuilder, furnace_scene, look_at};
+use prt_bake::testing::{furnace_scene, look_at, SceneBuilder};
 
-fn render_scene(scene: &Scene, reflections: usize, w: u32, h: u32, spp: u32) -> prt_bake::reference::Render {
+fn render_scene(
+    scene: &Scene,
+    reflections: usize,
+    w: u32,
+    h: u32,
+    spp: u32,
+) -> prt_bake::reference::Render {
     let accel = Accel::build(scene);
     let lights = LightSet::new(scene);
     let integ = Integrator::new(scene, &accel, &lights, reflections, w, h);
     let model = TrueBrdfModel::new(scene);
-    render(&integ, &model, &unit_coefficients(scene.materials.len()), spp, 7, None)
+    render(
+        &integ,
+        &model,
+        &unit_coefficients(scene.materials.len()),
+        spp,
+        7,
+        None,
+    )
 }
 
 /// White furnace: a convex Lambert object under a constant environment of radiance 1 reflects
@@ -31,10 +44,18 @@ fn furnace_sphere_radiance_equals_albedo() {
         assert!(n > 1000, "sphere covers {n} samples");
         let rel = ((mean - albedo) / albedo).abs().max_element();
         eprintln!("furnace reflections {reflections}: mean {mean} rel {rel}");
-        assert!(rel < 0.01, "reflections {reflections}: sphere mean {mean} vs albedo {albedo} (rel {rel})");
+        assert!(
+            rel < 0.01,
+            "reflections {reflections}: sphere mean {mean} vs albedo {albedo} (rel {rel})"
+        );
         // The background sees the environment itself.
         let (bg, _) = r.background_mean;
-        assert!((bg.expect("background visible") - Vec3::ONE).abs().max_element() < 1e-6);
+        assert!(
+            (bg.expect("background visible") - Vec3::ONE)
+                .abs()
+                .max_element()
+                < 1e-6
+        );
     }
 }
 
@@ -58,8 +79,18 @@ fn diffuse_plane_under_polygonal_light_matches_closed_form() {
     let kd = 0.8;
     let le = 5.0;
     let mut b = SceneBuilder::new();
-    let floor = b.material("floor", BrdfParams::diffuse(Vec3::splat(kd)), Vec3::ZERO, false);
-    let light = b.material("light", BrdfParams::diffuse(Vec3::ZERO), Vec3::splat(le), false);
+    let floor = b.material(
+        "floor",
+        BrdfParams::diffuse(Vec3::splat(kd)),
+        Vec3::ZERO,
+        false,
+    );
+    let light = b.material(
+        "light",
+        BrdfParams::diffuse(Vec3::ZERO),
+        Vec3::splat(le),
+        false,
+    );
     b.quad(
         [
             Vec3::new(-2.0, 0.0, -2.0),
@@ -77,7 +108,12 @@ fn diffuse_plane_under_polygonal_light_matches_closed_form() {
         Vec3::new(0.0, 1.0, 0.3),
     ];
     b.quad(poly, light);
-    b.camera(look_at(Vec3::new(0.0, 0.6, 0.0), Vec3::ZERO, Vec3::Z, 60f32.to_radians()));
+    b.camera(look_at(
+        Vec3::new(0.0, 0.6, 0.0),
+        Vec3::ZERO,
+        Vec3::Z,
+        60f32.to_radians(),
+    ));
     let scene = b.build();
     let (w, h) = (8u32, 8u32);
     let r = render_scene(&scene, 1, w, h, 4096);
@@ -99,7 +135,8 @@ fn diffuse_plane_under_polygonal_light_matches_closed_form() {
                     let (o, d) = integ.camera_ray(fx, fy);
                     let t = -o.y / d.y;
                     let p = o + d * t;
-                    expected += kd / std::f32::consts::PI * polygon_irradiance(p, Vec3::Y, &poly, le);
+                    expected +=
+                        kd / std::f32::consts::PI * polygon_irradiance(p, Vec3::Y, &poly, le);
                 }
             }
             expected /= (grid * grid) as f32;
@@ -120,13 +157,19 @@ fn diffuse_plane_under_polygonal_light_matches_closed_form() {
 fn render_is_identical_on_any_thread_count() {
     let scene = furnace_scene(Vec3::splat(0.5), Vec3::new(1.0, 0.5, 0.25));
     let run = |threads| {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("pool");
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("pool");
         pool.install(|| render_scene(&scene, 2, 24, 16, 4).pixels)
     };
     let a = run(1);
     let b = run(3);
     assert_eq!(a.len(), b.len());
     for (p, q) in a.iter().zip(&b) {
-        assert_eq!(p.to_array().map(f32::to_bits), q.to_array().map(f32::to_bits));
+        assert_eq!(
+            p.to_array().map(f32::to_bits),
+            q.to_array().map(f32::to_bits)
+        );
     }
 }

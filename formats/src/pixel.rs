@@ -143,7 +143,11 @@ impl MaterialMeta {
 /// The RGB coefficient of every slot of `material` for parameters `p`. `lobe` holds the
 /// family's lobe coefficients a_b(param) for editable glossy materials (from
 /// [`BrdfBasis::coefficients`]). Returns one RGB triple per slot.
-pub fn slot_coefficients(material: &MaterialMeta, p: &MaterialParams, lobe: &[f32]) -> Vec<[f32; 3]> {
+pub fn slot_coefficients(
+    material: &MaterialMeta,
+    p: &MaterialParams,
+    lobe: &[f32],
+) -> Vec<[f32; 3]> {
     let has_kd = material.has_kd_slot();
     material
         .slots
@@ -236,7 +240,14 @@ pub fn group_weights(
 /// Index of a T_k element within a group row: depth k, slot b0, active indices js (length k,
 /// j1 first), channel ch. The storage order is the one [`group_weights`] enumerates: depth
 /// blocks; within a block b0, then the active indices with j1 varying *fastest*, then channel.
-pub fn element_index(n0: usize, jn: usize, channels: usize, b0: usize, js: &[usize], ch: usize) -> usize {
+pub fn element_index(
+    n0: usize,
+    jn: usize,
+    channels: usize,
+    b0: usize,
+    js: &[usize],
+    ch: usize,
+) -> usize {
     let mut off = 0usize;
     let mut pow = 1usize;
     for _ in 0..js.len() {
@@ -314,7 +325,14 @@ mod tests {
             let len = row_len(2, 2, 3, channels);
             assert_eq!(w.len(), 3 * len);
             // T2[b0=1, j1=0, j2=1], blue channel: c[1] * c[0] * c[1].
-            let e = element_index(2, 2, channels, 1, &[0, 1], if channels == 3 { 2 } else { 0 });
+            let e = element_index(
+                2,
+                2,
+                channels,
+                1,
+                &[0, 1],
+                if channels == 3 { 2 } else { 0 },
+            );
             assert_eq!(w[2 * len + e], 7.0 * 2.0 * 7.0);
             // T0[b0=0], red.
             assert_eq!(w[element_index(2, 2, channels, 0, &[], 0)], 2.0);

@@ -14,7 +14,7 @@ use half::f16;
 use half::slice::HalfFloatSliceExt;
 use prt_formats::basis::BrdfBasis;
 use prt_formats::overrides::{MaterialOverride, OverrideValue};
-use prt_formats::pixel::{MaterialParams, PixelBakeMeta, group_weights, slot_coefficients};
+use prt_formats::pixel::{group_weights, slot_coefficients, MaterialParams, PixelBakeMeta};
 use prt_formats::{BakeFile, Dtype, FormatError};
 use rayon::prelude::*;
 
@@ -29,7 +29,11 @@ pub enum RuntimeError {
     #[error("material '{name}' is not editable in this bake (editable: {editable})")]
     NotEditable { name: String, editable: String },
     #[error("material '{name}' is {family}: it has no parameter '{param}'")]
-    WrongParam { name: String, family: String, param: String },
+    WrongParam {
+        name: String,
+        family: String,
+        param: String,
+    },
     #[error("this bake file has no compressed variant (bake with a compression rank)")]
     NoCompressed,
 }
@@ -81,8 +85,13 @@ impl Relighter {
         }
         let bases: Vec<BrdfBasis> = meta.bases.iter().map(|b| b.basis.clone()).collect();
         for b in &bases {
-            if b.param_samples.is_empty() || b.coefficients.len() != b.param_samples.len() * b.num_bases {
-                return Err(schema(format!("basis '{}' has an inconsistent coefficient table", b.family)));
+            if b.param_samples.is_empty()
+                || b.coefficients.len() != b.param_samples.len() * b.num_bases
+            {
+                return Err(schema(format!(
+                    "basis '{}' has an inconsistent coefficient table",
+                    b.family
+                )));
             }
         }
         let nslots: usize = meta.materials.iter().map(|m| m.slots.len()).sum();
@@ -90,13 +99,21 @@ impl Relighter {
         file.tensor("emission")?.require_shape(&[h, w, 3])?;
         for (g, gm) in meta.groups.iter().enumerate() {
             let Some(m) = meta.materials.get(gm.material as usize) else {
-                return Err(schema(format!("group {g} names material {} which does not exist", gm.material)));
+                return Err(schema(format!(
+                    "group {g} names material {} which does not exist",
+                    gm.material
+                )));
             };
             if m.basis.is_some_and(|b| b as usize >= bases.len()) {
-                return Err(schema(format!("material '{}' names a missing basis", m.name)));
+                return Err(schema(format!(
+                    "material '{}' names a missing basis",
+                    m.name
+                )));
             }
             if gm.active.iter().any(|&j| j as usize >= nslots) {
-                return Err(schema(format!("group {g} names a slot beyond the {nslots} slots")));
+                return Err(schema(format!(
+                    "group {g} names a slot beyond the {nslots} slots"
+                )));
             }
             let expect = prt_formats::pixel::row_len(
                 m.slots.len(),
@@ -105,20 +122,29 @@ impl Relighter {
                 meta.channels as usize,
             );
             if expect != gm.row_len as usize {
-                return Err(schema(format!("group {g}: row length {} but the layout gives {expect}", gm.row_len)));
+                return Err(schema(format!(
+                    "group {g}: row length {} but the layout gives {expect}",
+                    gm.row_len
+                )));
             }
             let p = gm.pixels as usize;
             let pix = file.tensor(&format!("g{g}.pixels"))?;
             pix.require_shape(&[p])?;
             if pix.as_u32()?.iter().any(|&i| i as usize >= w * h) {
-                return Err(schema(format!("group {g} has a pixel index outside the image")));
+                return Err(schema(format!(
+                    "group {g} has a pixel index outside the image"
+                )));
             }
-            file.tensor(&format!("g{g}.t"))?.require_shape(&[expect, p])?;
+            file.tensor(&format!("g{g}.t"))?
+                .require_shape(&[expect, p])?;
             if let Some(k) = gm.compressed_rank {
                 let k = k as usize;
-                file.tensor(&format!("g{g}.mean"))?.require_shape(&[expect])?;
-                file.tensor(&format!("g{g}.components"))?.require_shape(&[k, expect])?;
-                file.tensor(&format!("g{g}.weights"))?.require_shape(&[k, p])?;
+                file.tensor(&format!("g{g}.mean"))?
+                    .require_shape(&[expect])?;
+                file.tensor(&format!("g{g}.components"))?
+                    .require_shape(&[k, expect])?;
+                file.tensor(&format!("g{g}.weights"))?
+                    .require_shape(&[k, p])?;
             }
         }
         let params = meta.materials.iter().map(|m| m.params()).collect();
@@ -158,7 +184,13 @@ impl Relighter {
             .position(|m| m.name == name)
             .ok_or_else(|| RuntimeError::UnknownMaterial {
                 name: name.to_string(),
-                available: self.meta.materials.iter().map(|m| m.name.as_str()).collect::<Vec<_>>().join(", "),
+                available: self
+                    .meta
+                    .materials
+                    .iter()
+                    .map(|m| m.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", "),
             })
     }
 
@@ -257,36 +289,49 @@ impl Relighter {
                     bytes_read += ((mean.len() + comps.len() + z.len()) * 4) as u64;
                     // Contract the mean and the K components once per frame.
                     let base = dot3(mean, &w, len);
-                    let s: Vec<[f32; 3]> = (0..k).map(|r| dot3(&comps[r * len..(r + 1) * len], &w, len)).collect();
+                    let s: Vec<[f32; 3]> = (0..k)
+                        .map(|r| dot3(&comps[r * len..(r + 1) * len], &w, len))
+                        .collect();
                     Rows::Compressed { base, s, z }
                 }
             };
-            groups.push(GroupFrame { pixels, len, w, data });
+            groups.push(GroupFrame {
+                pixels,
+                len,
+                w,
+                data,
+            });
         }
         let (width, height) = (self.meta.width as usize, self.meta.height as usize);
-        let mut pixels: Vec<[f32; 3]> = emission.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+        let mut pixels: Vec<[f32; 3]> = emission
+            .chunks_exact(3)
+            .map(|c| [c[0], c[1], c[2]])
+            .collect();
         let band = width * BAND_ROWS;
-        pixels.par_chunks_mut(band.max(1)).enumerate().for_each(|(b, out)| {
-            let lo = (b * band) as u32;
-            let hi = lo + out.len() as u32;
-            let mut scratch = Scratch::default();
-            for g in &groups {
-                let first = g.pixels.partition_point(|&p| p < lo);
-                let last = g.pixels.partition_point(|&p| p < hi);
-                let mut i = first;
-                while i < last {
-                    let end = (i + BLOCK).min(last);
-                    let acc = g.contract_block(i, end, &mut scratch);
-                    for (k, p) in g.pixels[i..end].iter().enumerate() {
-                        let o = &mut out[(p - lo) as usize];
-                        o[0] += acc[0][k];
-                        o[1] += acc[1][k];
-                        o[2] += acc[2][k];
+        pixels
+            .par_chunks_mut(band.max(1))
+            .enumerate()
+            .for_each(|(b, out)| {
+                let lo = (b * band) as u32;
+                let hi = lo + out.len() as u32;
+                let mut scratch = Scratch::default();
+                for g in &groups {
+                    let first = g.pixels.partition_point(|&p| p < lo);
+                    let last = g.pixels.partition_point(|&p| p < hi);
+                    let mut i = first;
+                    while i < last {
+                        let end = (i + BLOCK).min(last);
+                        let acc = g.contract_block(i, end, &mut scratch);
+                        for (k, p) in g.pixels[i..end].iter().enumerate() {
+                            let o = &mut out[(p - lo) as usize];
+                            o[0] += acc[0][k];
+                            o[1] += acc[1][k];
+                            o[2] += acc[2][k];
+                        }
+                        i = end;
                     }
-                    i = end;
                 }
-            }
-        });
+            });
         debug_assert_eq!(pixels.len(), width * height);
         Ok(Frame {
             width: self.meta.width,
@@ -347,7 +392,12 @@ impl GroupFrame<'_> {
         }
         let [a0, a1, a2] = &mut sc.acc;
         let mut axpy3 = |col: &[f32], w: [f32; 3]| {
-            for (((x, o0), o1), o2) in col.iter().zip(a0.iter_mut()).zip(a1.iter_mut()).zip(a2.iter_mut()) {
+            for (((x, o0), o1), o2) in col
+                .iter()
+                .zip(a0.iter_mut())
+                .zip(a1.iter_mut())
+                .zip(a2.iter_mut())
+            {
                 *o0 += w[0] * x;
                 *o1 += w[1] * x;
                 *o2 += w[2] * x;

@@ -8,7 +8,7 @@ use prt_bake::basis::{BasisBuilder, BasisConfig};
 use prt_bake::brdf::{BrdfParams, Family};
 use prt_bake::pixel::{self, PixelBakeOptions, Precision, SlotLayout};
 use prt_bake::scene::{Environment, PunctualLight, Scene};
-use prt_bake::testing::{SceneBuilder, look_at};
+use prt_bake::testing::{look_at, SceneBuilder};
 use prt_formats::basis::{AngularGrid, BrdfBasis};
 
 /// A small basis (coarse grid, few parameter samples) so tests build it in milliseconds.
@@ -31,7 +31,12 @@ pub fn small_basis(family: Family, count: usize) -> BrdfBasis {
 /// point light. `light` is the colour of both lights; `env` the environment.
 pub fn test_scene(light: Vec3, env: Vec3) -> Scene {
     let mut b = SceneBuilder::new();
-    let floor = b.material("floor", BrdfParams::diffuse(Vec3::new(0.7, 0.6, 0.5)), Vec3::ZERO, false);
+    let floor = b.material(
+        "floor",
+        BrdfParams::diffuse(Vec3::new(0.7, 0.6, 0.5)),
+        Vec3::ZERO,
+        false,
+    );
     let wall = b.material(
         "wall",
         BrdfParams {
@@ -65,7 +70,12 @@ pub fn test_scene(light: Vec3, env: Vec3) -> Scene {
         Vec3::ZERO,
         true,
     );
-    let block = b.material("block", BrdfParams::diffuse(Vec3::splat(0.6)), Vec3::ZERO, true);
+    let block = b.material(
+        "block",
+        BrdfParams::diffuse(Vec3::splat(0.6)),
+        Vec3::ZERO,
+        true,
+    );
     let lamp = b.material("lamp", BrdfParams::diffuse(Vec3::ZERO), light * 8.0, false);
     b.quad(
         [
@@ -110,7 +120,12 @@ pub fn test_scene(light: Vec3, env: Vec3) -> Scene {
         intensity: light * 2.0,
     });
     b.environment(Environment::Constant(env));
-    b.camera(look_at(Vec3::new(0.0, 1.2, 3.2), Vec3::new(0.0, 0.6, -0.5), Vec3::Y, 50f32.to_radians()));
+    b.camera(look_at(
+        Vec3::new(0.0, 1.2, 3.2),
+        Vec3::new(0.0, 0.6, -0.5),
+        Vec3::Y,
+        50f32.to_radians(),
+    ));
     b.build()
 }
 
@@ -126,7 +141,13 @@ pub fn bases_for(scene: &Scene, count: usize) -> Vec<BrdfBasis> {
 }
 
 /// Options of a small bake.
-pub fn small_options(w: u32, h: u32, spp: u32, reflections: u32, precision: Precision) -> PixelBakeOptions {
+pub fn small_options(
+    w: u32,
+    h: u32,
+    spp: u32,
+    reflections: u32,
+    precision: Precision,
+) -> PixelBakeOptions {
     PixelBakeOptions {
         width: w,
         height: h,
@@ -147,7 +168,12 @@ pub fn temp_path(name: &str) -> PathBuf {
 }
 
 /// Bakes and writes a bake file; returns the layout used and the path.
-pub fn bake_to_file(scene: &Scene, bases: &[BrdfBasis], opts: &PixelBakeOptions, name: &str) -> (SlotLayout, PathBuf) {
+pub fn bake_to_file(
+    scene: &Scene,
+    bases: &[BrdfBasis],
+    opts: &PixelBakeOptions,
+    name: &str,
+) -> (SlotLayout, PathBuf) {
     let layout = SlotLayout::new(scene, bases).expect("layout");
     let bake = pixel::bake(scene, &layout, opts, None).expect("bake");
     let path = temp_path(name);

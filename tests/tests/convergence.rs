@@ -10,7 +10,7 @@ use prt_bake::accel::Accel;
 use prt_bake::integrator::Integrator;
 use prt_bake::lights::LightSet;
 use prt_bake::pixel::{self, PixelBakeOptions, Precision, SlotLayout};
-use prt_bake::reference::{TrueBrdfModel, render, unit_coefficients};
+use prt_bake::reference::{render, unit_coefficients, TrueBrdfModel};
 use prt_bake::run::{apply_override, build_bases, load};
 use prt_bake::scene::Scene;
 use prt_formats::overrides::parse_override;
@@ -18,22 +18,47 @@ use prt_runtime::{Relighter, Variant};
 use prt_tests::{relative_l2, temp_path};
 
 fn scene_config(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..").join("scenes").join(name).join("bake.toml")
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("..")
+        .join("scenes")
+        .join(name)
+        .join("bake.toml")
 }
 
-fn reference(scene: &Scene, reflections: usize, w: u32, h: u32, spp: u32, seed: u64) -> Vec<[f32; 3]> {
+fn reference(
+    scene: &Scene,
+    reflections: usize,
+    w: u32,
+    h: u32,
+    spp: u32,
+    seed: u64,
+) -> Vec<[f32; 3]> {
     let accel = Accel::build(scene);
     let lights = LightSet::new(scene);
     let integ = Integrator::new(scene, &accel, &lights, reflections, w, h);
     let model = TrueBrdfModel::new(scene);
-    render(&integ, &model, &unit_coefficients(scene.materials.len()), spp, seed, None)
-        .pixels
-        .iter()
-        .map(|p| p.to_array())
-        .collect()
+    render(
+        &integ,
+        &model,
+        &unit_coefficients(scene.materials.len()),
+        spp,
+        seed,
+        None,
+    )
+    .pixels
+    .iter()
+    .map(|p| p.to_array())
+    .collect()
 }
 
-fn check_scene(name: &str, settings: &[&[&str]], size: (u32, u32), spp: u32, ref_spp: u32, slack: f64) {
+fn check_scene(
+    name: &str,
+    settings: &[&[&str]],
+    size: (u32, u32),
+    spp: u32,
+    ref_spp: u32,
+    slack: f64,
+) {
     let (config, scene) = load(&scene_config(name)).expect("load scene");
     let reflections = config.reflections as usize;
     let bases = build_bases(&scene, 6, false).expect("bases");
@@ -80,7 +105,11 @@ fn cornell_relit_converges_to_the_reference() {
         &[
             &[],
             &["bunny.kd=0.8,0.2,0.2", "bunny.shininess=150"],
-            &["tall_box.alpha=0.05", "tall_box.ks=0.8", "bunny.shininess=5"],
+            &[
+                "tall_box.alpha=0.05",
+                "tall_box.ks=0.8",
+                "bunny.shininess=5",
+            ],
         ],
         (32, 32),
         32,
@@ -93,7 +122,11 @@ fn cornell_relit_converges_to_the_reference() {
 fn ring_relit_converges_to_the_reference() {
     check_scene(
         "ring",
-        &[&[], &["ring.shininess=30"], &["ring.shininess=120", "ring.ks=0.5,0.4,0.1"]],
+        &[
+            &[],
+            &["ring.shininess=30"],
+            &["ring.shininess=120", "ring.ks=0.5,0.4,0.1"],
+        ],
         (32, 32),
         32,
         1024,

@@ -12,7 +12,8 @@ use prt_tests::{bake_to_file, bases_for, relative_l2, small_options, temp_path, 
 
 fn set(r: &mut Relighter, edits: &[&str]) {
     for e in edits {
-        r.apply(&parse_override(e).expect("override")).expect("apply");
+        r.apply(&parse_override(e).expect("override"))
+            .expect("apply");
     }
 }
 
@@ -22,16 +23,34 @@ fn set(r: &mut Relighter, edits: &[&str]) {
 fn direct_only_edit_changes_exactly_the_objects_pixels() {
     let scene = test_scene(Vec3::ONE, Vec3::ZERO);
     let bases = bases_for(&scene, 4);
-    let (_, path) = bake_to_file(&scene, &bases, &small_options(32, 24, 4, 1, Precision::F32), "local1.prtbake");
+    let (_, path) = bake_to_file(
+        &scene,
+        &bases,
+        &small_options(32, 24, 4, 1, Precision::F32),
+        "local1.prtbake",
+    );
     let mut r = Relighter::open(&path).expect("open");
     let before = r.render(Variant::Full).expect("render").pixels;
     set(&mut r, &["shiny.kd=0.9,0.9,0.1", "shiny.shininess=5"]);
     let after = r.render(Variant::Full).expect("render").pixels;
     let meta = r.meta();
-    let shiny = meta.materials.iter().position(|m| m.name == "shiny").expect("shiny") as u32;
-    let g = meta.groups.iter().position(|g| g.material == shiny).expect("shiny visible");
+    let shiny = meta
+        .materials
+        .iter()
+        .position(|m| m.name == "shiny")
+        .expect("shiny") as u32;
+    let g = meta
+        .groups
+        .iter()
+        .position(|g| g.material == shiny)
+        .expect("shiny visible");
     let file = prt_formats::BakeFile::open(&path).expect("file");
-    let pixels: Vec<u32> = file.tensor(&format!("g{g}.pixels")).expect("pixels").as_u32().expect("u32").to_vec();
+    let pixels: Vec<u32> = file
+        .tensor(&format!("g{g}.pixels"))
+        .expect("pixels")
+        .as_u32()
+        .expect("u32")
+        .to_vec();
     let (mut changed, mut same) = (0, 0);
     for (i, (a, b)) in before.iter().zip(&after).enumerate() {
         if pixels.contains(&(i as u32)) {
@@ -41,7 +60,10 @@ fn direct_only_edit_changes_exactly_the_objects_pixels() {
             same += 1;
         }
     }
-    assert!(changed > 20 && same > 100, "changed {changed}, unchanged {same}");
+    assert!(
+        changed > 20 && same > 100,
+        "changed {changed}, unchanged {same}"
+    );
     let _ = std::fs::remove_file(&path);
 }
 
@@ -51,18 +73,83 @@ fn direct_only_edit_changes_exactly_the_objects_pixels() {
 fn indirect_edit_leaves_pixels_without_its_light_unchanged() {
     // A partition hides the editable block from the left half of the floor.
     let mut b = SceneBuilder::new();
-    let floor = b.material("floor", BrdfParams::diffuse(Vec3::splat(0.6)), Vec3::ZERO, false);
-    let block = b.material("block", BrdfParams::diffuse(Vec3::splat(0.5)), Vec3::ZERO, true);
-    let lamp = b.material("lamp", BrdfParams::diffuse(Vec3::ZERO), Vec3::splat(10.0), false);
-    b.quad([Vec3::new(-2.0, 0.0, -2.0), Vec3::new(-2.0, 0.0, 2.0), Vec3::new(2.0, 0.0, 2.0), Vec3::new(2.0, 0.0, -2.0)], floor);
+    let floor = b.material(
+        "floor",
+        BrdfParams::diffuse(Vec3::splat(0.6)),
+        Vec3::ZERO,
+        false,
+    );
+    let block = b.material(
+        "block",
+        BrdfParams::diffuse(Vec3::splat(0.5)),
+        Vec3::ZERO,
+        true,
+    );
+    let lamp = b.material(
+        "lamp",
+        BrdfParams::diffuse(Vec3::ZERO),
+        Vec3::splat(10.0),
+        false,
+    );
+    b.quad(
+        [
+            Vec3::new(-2.0, 0.0, -2.0),
+            Vec3::new(-2.0, 0.0, 2.0),
+            Vec3::new(2.0, 0.0, 2.0),
+            Vec3::new(2.0, 0.0, -2.0),
+        ],
+        floor,
+    );
     // Partition at x = 0, taller than everything.
-    b.quad([Vec3::new(0.0, 0.0, -2.0), Vec3::new(0.0, 0.0, 2.0), Vec3::new(0.0, 3.0, 2.0), Vec3::new(0.0, 3.0, -2.0)], floor);
-    b.quad([Vec3::new(0.3, 0.0, -0.8), Vec3::new(1.8, 0.0, -0.8), Vec3::new(1.8, 1.5, -0.8), Vec3::new(0.3, 1.5, -0.8)], block);
-    b.quad([Vec3::new(-1.5, 2.5, -0.5), Vec3::new(-0.5, 2.5, -0.5), Vec3::new(-0.5, 2.5, 0.5), Vec3::new(-1.5, 2.5, 0.5)], lamp);
-    b.quad([Vec3::new(0.5, 2.5, -0.5), Vec3::new(1.5, 2.5, -0.5), Vec3::new(1.5, 2.5, 0.5), Vec3::new(0.5, 2.5, 0.5)], lamp);
-    b.camera(prt_bake::testing::look_at(Vec3::new(0.0, 5.0, 3.0), Vec3::ZERO, Vec3::Y, 50f32.to_radians()));
+    b.quad(
+        [
+            Vec3::new(0.0, 0.0, -2.0),
+            Vec3::new(0.0, 0.0, 2.0),
+            Vec3::new(0.0, 3.0, 2.0),
+            Vec3::new(0.0, 3.0, -2.0),
+        ],
+        floor,
+    );
+    b.quad(
+        [
+            Vec3::new(0.3, 0.0, -0.8),
+            Vec3::new(1.8, 0.0, -0.8),
+            Vec3::new(1.8, 1.5, -0.8),
+            Vec3::new(0.3, 1.5, -0.8),
+        ],
+        block,
+    );
+    b.quad(
+        [
+            Vec3::new(-1.5, 2.5, -0.5),
+            Vec3::new(-0.5, 2.5, -0.5),
+            Vec3::new(-0.5, 2.5, 0.5),
+            Vec3::new(-1.5, 2.5, 0.5),
+        ],
+        lamp,
+    );
+    b.quad(
+        [
+            Vec3::new(0.5, 2.5, -0.5),
+            Vec3::new(1.5, 2.5, -0.5),
+            Vec3::new(1.5, 2.5, 0.5),
+            Vec3::new(0.5, 2.5, 0.5),
+        ],
+        lamp,
+    );
+    b.camera(prt_bake::testing::look_at(
+        Vec3::new(0.0, 5.0, 3.0),
+        Vec3::ZERO,
+        Vec3::Y,
+        50f32.to_radians(),
+    ));
     let scene = b.build();
-    let (layout, path) = bake_to_file(&scene, &[], &small_options(32, 24, 32, 2, Precision::F32), "local2.prtbake");
+    let (layout, path) = bake_to_file(
+        &scene,
+        &[],
+        &small_options(32, 24, 32, 2, Precision::F32),
+        "local2.prtbake",
+    );
     let mut r = Relighter::open(&path).expect("open");
     let before = r.render(Variant::Full).expect("render").pixels;
     set(&mut r, &["block.kd=0.1,0.9,0.2"]);
@@ -75,8 +162,18 @@ fn indirect_edit_leaves_pixels_without_its_light_unchanged() {
     let file = prt_formats::BakeFile::open(&path).expect("file");
     let mut involved = vec![false; before.len()];
     for (g, gm) in meta.groups.iter().enumerate() {
-        let pix = file.tensor(&format!("g{g}.pixels")).expect("pixels").as_u32().expect("u32").to_vec();
-        let t = file.tensor(&format!("g{g}.t")).expect("t").as_f32().expect("f32").to_vec();
+        let pix = file
+            .tensor(&format!("g{g}.pixels"))
+            .expect("pixels")
+            .as_u32()
+            .expect("u32")
+            .to_vec();
+        let t = file
+            .tensor(&format!("g{g}.t"))
+            .expect("t")
+            .as_f32()
+            .expect("f32")
+            .to_vec();
         let len = gm.row_len as usize;
         let jn = gm.active.len();
         let Some(ja) = gm.active.iter().position(|&j| j == block_slot) else {
@@ -90,7 +187,9 @@ fn indirect_edit_leaves_pixels_without_its_light_unchanged() {
         assert_eq!(t.len(), len * np);
         for (k, &p) in pix.iter().enumerate() {
             let uses = (0..gm.slots as usize).any(|b0| {
-                t[prt_formats::pixel::element_index(gm.slots as usize, jn, 1, b0, &[ja], 0) * np + k] != 0.0
+                t[prt_formats::pixel::element_index(gm.slots as usize, jn, 1, b0, &[ja], 0) * np
+                    + k]
+                    != 0.0
             });
             if uses || gm.material == block_idx {
                 involved[p as usize] = true;
@@ -108,8 +207,14 @@ fn indirect_edit_leaves_pixels_without_its_light_unchanged() {
     }
     let n_involved = involved.iter().filter(|&&x| x).count();
     // Every involved pixel changes unless its block terms happen to cancel exactly.
-    assert!(changed * 10 >= n_involved * 9 && changed > 50, "{changed} of {n_involved} involved pixels changed");
-    assert!(same > 50, "only {same} pixels are free of the block's light: the partition should hide it");
+    assert!(
+        changed * 10 >= n_involved * 9 && changed > 50,
+        "{changed} of {n_involved} involved pixels changed"
+    );
+    assert!(
+        same > 50,
+        "only {same} pixels are free of the block's light: the partition should hide it"
+    );
     let _ = std::fs::remove_file(&path);
 }
 
@@ -128,16 +233,41 @@ fn hard_settings_give_finite_images() {
     }
     let bases = bases_for(&scene, 6);
     for (name, sc) in [("normal", &scene), ("sun", &sun)] {
-        let (_, p16) = bake_to_file(sc, &bases, &small_options(24, 16, 4, 2, Precision::F16), &format!("hard16-{name}.prtbake"));
-        let (_, p32) = bake_to_file(sc, &bases, &small_options(24, 16, 4, 2, Precision::F32), &format!("hard32-{name}.prtbake"));
+        let (_, p16) = bake_to_file(
+            sc,
+            &bases,
+            &small_options(24, 16, 4, 2, Precision::F16),
+            &format!("hard16-{name}.prtbake"),
+        );
+        let (_, p32) = bake_to_file(
+            sc,
+            &bases,
+            &small_options(24, 16, 4, 2, Precision::F32),
+            &format!("hard32-{name}.prtbake"),
+        );
         // (edits, bound on the f16-vs-f32 relative L2 error; None = only finiteness). f16 keeps
         // ~2^-11 relative precision per stored value, but sharp lobes are sums of large basis
         // terms of both signs, so the relit value's error is that times the cancellation
         // factor: small for in-range settings, large for absurd ones (measured in docs/pixel.md).
         let cases: [(&[&str], Option<f64>); 3] = [
             (&["shiny.shininess=200", "metal.alpha=0.02"], Some(1.5e-2)),
-            (&["shiny.shininess=100000", "metal.alpha=0.0001", "shiny.ks=50"], None),
-            (&["shiny.shininess=0", "metal.alpha=1", "metal.ks=0,0,0", "block.kd=0,0,0"], Some(5e-4)),
+            (
+                &[
+                    "shiny.shininess=100000",
+                    "metal.alpha=0.0001",
+                    "shiny.ks=50",
+                ],
+                None,
+            ),
+            (
+                &[
+                    "shiny.shininess=0",
+                    "metal.alpha=1",
+                    "metal.ks=0,0,0",
+                    "block.kd=0,0,0",
+                ],
+                Some(5e-4),
+            ),
         ];
         for (edits, bound) in cases {
             let mut a = Relighter::open(&p16).expect("open f16");
@@ -146,12 +276,21 @@ fn hard_settings_give_finite_images() {
             set(&mut b, edits);
             let fa = a.render(Variant::Full).expect("render f16").pixels;
             let fb = b.render(Variant::Full).expect("render f32").pixels;
-            assert!(fa.iter().flatten().all(|v| v.is_finite()), "{name} {edits:?}: non-finite f16 relight");
-            assert!(fb.iter().flatten().all(|v| v.is_finite()), "{name} {edits:?}: non-finite f32 relight");
+            assert!(
+                fa.iter().flatten().all(|v| v.is_finite()),
+                "{name} {edits:?}: non-finite f16 relight"
+            );
+            assert!(
+                fb.iter().flatten().all(|v| v.is_finite()),
+                "{name} {edits:?}: non-finite f32 relight"
+            );
             let err = relative_l2(&fa, &fb);
             eprintln!("{name} {edits:?}: f16 vs f32 relative L2 {err:.2e}");
             if let Some(bound) = bound {
-                assert!(err < bound, "{name} {edits:?}: f16 vs f32 relative L2 {err}");
+                assert!(
+                    err < bound,
+                    "{name} {edits:?}: f16 vs f32 relative L2 {err}"
+                );
             }
         }
         let _ = std::fs::remove_file(&p16);
@@ -164,28 +303,53 @@ fn hard_settings_give_finite_images() {
 fn relight_rejects_bad_input_with_clear_errors() {
     let scene = test_scene(Vec3::ONE, Vec3::ZERO);
     let bases = bases_for(&scene, 3);
-    let (_, path) = bake_to_file(&scene, &bases, &small_options(12, 8, 2, 2, Precision::F16), "bad.prtbake");
+    let (_, path) = bake_to_file(
+        &scene,
+        &bases,
+        &small_options(12, 8, 2, 2, Precision::F16),
+        "bad.prtbake",
+    );
     let mut r = Relighter::open(&path).expect("open");
     let err = |e: RuntimeError| e.to_string();
-    let e = err(r.apply(&parse_override("nosuch.kd=1").expect("parse")).expect_err("unknown material"));
-    assert!(e.contains("unknown material 'nosuch'") && e.contains("shiny"), "{e}");
-    let e = err(r.apply(&parse_override("floor.kd=1").expect("parse")).expect_err("not editable"));
+    let e = err(r
+        .apply(&parse_override("nosuch.kd=1").expect("parse"))
+        .expect_err("unknown material"));
+    assert!(
+        e.contains("unknown material 'nosuch'") && e.contains("shiny"),
+        "{e}"
+    );
+    let e = err(r
+        .apply(&parse_override("floor.kd=1").expect("parse"))
+        .expect_err("not editable"));
     assert!(e.contains("not editable") && e.contains("floor"), "{e}");
-    let e = err(r.apply(&parse_override("shiny.alpha=0.3").expect("parse")).expect_err("wrong param"));
+    let e = err(r
+        .apply(&parse_override("shiny.alpha=0.3").expect("parse"))
+        .expect_err("wrong param"));
     assert!(e.contains("blinn-phong") && e.contains("alpha"), "{e}");
-    let e = err(r.apply(&parse_override("block.ks=0.3").expect("parse")).expect_err("diffuse has no ks"));
+    let e = err(r
+        .apply(&parse_override("block.ks=0.3").expect("parse"))
+        .expect_err("diffuse has no ks"));
     assert!(e.contains("ks"), "{e}");
     assert!(parse_override("shiny.kd=abc").is_err());
     assert!(parse_override("shiny.shininess=-1").is_err());
-    assert!(matches!(r.render(Variant::Compressed), Err(RuntimeError::NoCompressed)));
+    assert!(matches!(
+        r.render(Variant::Compressed),
+        Err(RuntimeError::NoCompressed)
+    ));
 
     let bytes = std::fs::read(&path).expect("read");
     // Truncated at several places.
     for cut in [0, 7, 100, bytes.len() / 2, bytes.len() - 1] {
         let p = temp_path(&format!("cut{cut}.prtbake"));
         std::fs::write(&p, &bytes[..cut]).expect("write");
-        let e = Relighter::open(&p).err().map(|e| e.to_string()).expect("truncated file must fail");
-        assert!(e.contains(&p.display().to_string()), "error does not name the file: {e}");
+        let e = Relighter::open(&p)
+            .err()
+            .map(|e| e.to_string())
+            .expect("truncated file must fail");
+        assert!(
+            e.contains(&p.display().to_string()),
+            "error does not name the file: {e}"
+        );
         let _ = std::fs::remove_file(&p);
     }
     // A flipped byte in the tensor data fails the checksum.
@@ -194,15 +358,24 @@ fn relight_rejects_bad_input_with_clear_errors() {
     bad[n - 5] ^= 0x40;
     let p = temp_path("flipped.prtbake");
     std::fs::write(&p, &bad).expect("write");
-    let e = Relighter::open(&p).err().map(|e| e.to_string()).expect("corrupt file must fail");
-    assert!(e.to_lowercase().contains("checksum") || e.contains("crc"), "{e}");
+    let e = Relighter::open(&p)
+        .err()
+        .map(|e| e.to_string())
+        .expect("corrupt file must fail");
+    assert!(
+        e.to_lowercase().contains("checksum") || e.contains("crc"),
+        "{e}"
+    );
     let _ = std::fs::remove_file(&p);
     // A valid container that is not a per-pixel bake.
     let mut w = prt_formats::BakeWriter::new();
     w.set_metadata(serde_json::json!({"something": "else"}));
     let p = temp_path("foreign.prtbake");
     w.write_atomic(&p).expect("write");
-    let e = Relighter::open(&p).err().map(|e| e.to_string()).expect("foreign file must fail");
+    let e = Relighter::open(&p)
+        .err()
+        .map(|e| e.to_string())
+        .expect("foreign file must fail");
     assert!(e.contains("per-pixel"), "{e}");
     let _ = std::fs::remove_file(&p);
     let _ = std::fs::remove_file(&path);

@@ -23,7 +23,14 @@ fn projected_reference(
 ) -> Vec<[f32; 3]> {
     let accel = Accel::build(scene);
     let lights = LightSet::new(scene);
-    let integ = Integrator::new(scene, &accel, &lights, opts.reflections as usize, opts.width, opts.height);
+    let integ = Integrator::new(
+        scene,
+        &accel,
+        &lights,
+        opts.reflections as usize,
+        opts.width,
+        opts.height,
+    );
     let model = BakeModel::new(scene, layout);
     let coeff = layout.coefficients_per_material(edits);
     render(&integ, &model, &coeff, opts.spp, opts.seed, None)
@@ -36,15 +43,30 @@ fn projected_reference(
 fn check_exact(scene: &Scene, reflections: u32, expect_channels: u32) {
     let bases = bases_for(scene, 4);
     let opts = small_options(20, 14, 3, reflections, Precision::F32);
-    let (layout, path) = bake_to_file(scene, &bases, &opts, &format!("exact-{reflections}-{expect_channels}.prtbake"));
+    let (layout, path) = bake_to_file(
+        scene,
+        &bases,
+        &opts,
+        &format!("exact-{reflections}-{expect_channels}.prtbake"),
+    );
     let mut relight = Relighter::open(&path).expect("open bake");
     assert_eq!(relight.meta().channels, expect_channels);
 
     let settings: [&[&str]; 3] = [
         &[],
-        &["shiny.kd=0.1,0.8,0.3", "shiny.shininess=150", "metal.alpha=0.05", "metal.ks=0.2,0.9,0.9"],
+        &[
+            "shiny.kd=0.1,0.8,0.3",
+            "shiny.shininess=150",
+            "metal.alpha=0.05",
+            "metal.ks=0.2,0.9,0.9",
+        ],
         // Far outside the sampled ranges and large coefficients: the identity still holds.
-        &["shiny.shininess=1000", "shiny.ks=3", "block.kd=2,0.1,5", "metal.alpha=0.9"],
+        &[
+            "shiny.shininess=1000",
+            "shiny.ks=3",
+            "block.kd=2,0.1,5",
+            "metal.alpha=0.9",
+        ],
     ];
     for edits in settings {
         let mut params: Vec<(usize, MaterialParams)> = Vec::new();
@@ -56,7 +78,10 @@ fn check_exact(scene: &Scene, reflections: u32, expect_channels: u32) {
         }
         let frame = relight.render(Variant::Full).expect("relight");
         let reference = projected_reference(scene, &layout, &params, &opts);
-        let peak = reference.iter().flatten().fold(0.0f32, |m, v| m.max(v.abs()));
+        let peak = reference
+            .iter()
+            .flatten()
+            .fold(0.0f32, |m, v| m.max(v.abs()));
         assert!(peak > 0.0);
         let mut worst = 0.0f32;
         for (a, b) in frame.pixels.iter().zip(&reference) {
@@ -66,7 +91,10 @@ fn check_exact(scene: &Scene, reflections: u32, expect_channels: u32) {
                 worst = worst.max(rel);
             }
         }
-        assert!(worst < 1e-4, "edits {edits:?}: worst per-pixel relative difference {worst}");
+        assert!(
+            worst < 1e-4,
+            "edits {edits:?}: worst per-pixel relative difference {worst}"
+        );
     }
     let _ = std::fs::remove_file(&path);
 }
@@ -80,7 +108,11 @@ fn relight_equals_projected_reference_gray_two_reflections() {
 #[test]
 fn relight_equals_projected_reference_rgb_three_reflections() {
     // A differently coloured environment forces RGB tensors; three reflections exercise T2.
-    check_exact(&test_scene(Vec3::new(1.0, 0.8, 0.6), Vec3::new(0.05, 0.1, 0.2)), 3, 3);
+    check_exact(
+        &test_scene(Vec3::new(1.0, 0.8, 0.6), Vec3::new(0.05, 0.1, 0.2)),
+        3,
+        3,
+    );
 }
 
 #[test]

@@ -3,18 +3,23 @@
 //!     bake scenes/cornell/bake.toml            bake the config (writes its output file)
 //!     bake basis --family blinn-phong ...      BRDF basis error tables and report
 //!     bake bench rays                          ray throughput on a ~100K-triangle scene
+//!     bake bench pixel                         the per-pixel speed-vs-error report
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::{Result, bail};
+use anyhow::{bail, Result};
 use clap::{Args, Parser, Subcommand};
 use prt_bake::config::Mode;
 use prt_bake::pixel::Precision;
-use prt_bake::run::{PixelRunSettings, human_bytes, load, parse_size, run_pixel};
+use prt_bake::run::{human_bytes, load, parse_size, run_pixel, PixelRunSettings};
 
 #[derive(Parser, Debug)]
-#[command(version, about = "PRT baker: bakes transfer tensors for editable-material relighting", args_conflicts_with_subcommands = true)]
+#[command(
+    version,
+    about = "PRT baker: bakes transfer tensors for editable-material relighting",
+    args_conflicts_with_subcommands = true
+)]
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,
@@ -43,6 +48,29 @@ enum BenchCommand {
         config: Option<PathBuf>,
         #[arg(long)]
         json: bool,
+    },
+    /// The per-pixel speed-vs-error report: bake and relight timings, bandwidth bound, errors
+    /// vs a true-BRDF reference, plots and pictures (docs/report-pixel.md, docs/img/pixel-*).
+    Pixel {
+        /// Bake configs; the first is the main scene (default: cornell, then ring).
+        #[arg(long = "config")]
+        configs: Vec<PathBuf>,
+        /// The markdown report (default: docs/report-pixel.md; with --quick,
+        /// target/report/quick/report-pixel.md).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Folder of the PNGs (default: docs/img; with --quick, target/report/quick/img).
+        #[arg(long)]
+        img_dir: Option<PathBuf>,
+        /// Scratch folder for bake files (deleted after use).
+        #[arg(long, default_value = "target/report")]
+        work_dir: PathBuf,
+        /// Tiny sizes: a smoke run of every step in seconds.
+        #[arg(long)]
+        quick: bool,
+        /// No progress lines on stderr.
+        #[arg(long)]
+        quiet: bool,
     },
 }
 
@@ -94,7 +122,17 @@ fn main() -> ExitCode {
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Some(Command::Basis(args)) => prt_bake::basis::cli::run(&args),
-        Some(Command::Bench(BenchCommand::Rays { rays, config, json })) => bench_rays(rays, config, json),
+        Some(Command::Bench(BenchCommand::Rays { rays, config, json })) => {
+            bench_rays(rays, config, json)
+        }
+        Some(Command::Bench(BenchCommand::Pixel {
+            configs,
+            out,
+            img_dir,
+            work_dir,
+            quick,
+            quiet,
+        })) => bench_pixel(configs, out, img_dir, work_dir, quick, quiet),
         None => {
             let Some(config) = cli.bake.config.clone() else {
                 bail!("give a bake config, e.g. `bake scenes/cornell/bake.toml` (see --help)");
@@ -117,7 +155,11 @@ fn bake(config_path: &std::path::Path, a: &BakeArgs) -> Result<()> {
         width: a.width,
         height: a.height,
         output: a.out.clone(),
-        precision: Some(if a.precision == "f16" { Precision::F16 } else { Precision::F32 }),
+        precision: Some(if a.precision == "f16" {
+            Precision::F16
+        } else {
+            Precision::F32
+        }),
         max_memory: a.max_memory,
         compress_rank: a.compress_rank,
         basis_count: a.basis_count,
@@ -150,11 +192,75 @@ fn bench_rays(rays: usize, config: Option<PathBuf>, json: bool) -> Result<()> {
             serde_json::json!({"triangles": scene.triangles.len(), "results": figures})
         );
     } else {
-        println!("ray throughput, {} triangles, {} rays per measurement", scene.triangles.len(), rays);
+        println!(
+            "ray throughput, {} triangles, {} rays per measurement",
+            scene.triangles.len(),
+            rays
+        );
         println!("{:<24} {:>8} {:>14}", "kind", "threads", "Mrays/s");
         for f in figures {
-            println!("{:<24} {:>8} {:>14.2}", f.kind, f.threads, f.rays_per_second / 1e6);
+            println!(
+                "{:<24} {:>8} {:>14.2}",
+                f.kind,
+                f.threads,
+                f.rays_per_second / 1e6
+            );
         }
     }
+    Ok(())
+}
+
+fn bench_pixel(
+    configs: Vec<PathBuf>,
+    out: Option<PathBuf>,
+    img_dir: Option<PathBuf>,
+    work_dir: PathBuf,
+    quick: bool,
+    quiet: bool,
+) -> Result<()> {
+    use prt_bake::report_pixel::{run, ReportOptions, DEFAULT_CONFIGS};
+    let configs = if configs.is_empty() {
+        let d: Vec<PathBuf> = DEFAULT_CONFIGS.iter().map(PathBuf::from).collect();
+        if let Some(missing) = d.iter().find(|p| !p.is_file()) {
+            bail!(
+                "{} not found: run from the repository root or give --config",
+                missing.display()
+            );
+        }
+        d
+    } else {
+        configs
+    };
+    let quick_dir = PathBuf::from("target/report/quick");
+    let opts = ReportOptions {
+        configs,
+        out: out.unwrap_or_else(|| {
+            if quick {
+                quick_dir.join("report-pixel.md")
+            } else {
+                PathBuf::from("docs/report-pixel.md")
+            }
+        }),
+        img_dir: img_dir.unwrap_or_else(|| {
+            if quick {
+                quick_dir.join("img")
+            } else {
+                PathBuf::from("docs/img")
+            }
+        }),
+        work_dir,
+        quick,
+        command: std::env::args()
+            .skip(1)
+            .fold("bake".to_string(), |a, b| a + " " + &b),
+        verbose: !quiet,
+    };
+    let summary = run(&opts)?;
+    eprintln!(
+        "wrote {} and {} images in {:.0} s",
+        summary.markdown.display(),
+        summary.images.len(),
+        summary.seconds
+    );
     Ok(())
 }

@@ -4,17 +4,20 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::{Result, bail};
+use anyhow::{bail, Result};
 use clap::Parser;
 use prt_bake::accel::Accel;
 use prt_bake::integrator::Integrator;
 use prt_bake::lights::LightSet;
-use prt_bake::reference::{TrueBrdfModel, render, unit_coefficients};
+use prt_bake::reference::{render, unit_coefficients, TrueBrdfModel};
 use prt_bake::run::{apply_override, load, progress_bar};
 use prt_formats::MaterialOverride;
 
 #[derive(Parser, Debug)]
-#[command(version, about = "Reference path tracer: the ground truth a bake is checked against")]
+#[command(
+    version,
+    about = "Reference path tracer: the ground truth a bake is checked against"
+)]
 struct Args {
     /// The bake config (TOML) naming the scene.
     config: PathBuf,
@@ -66,7 +69,14 @@ fn run(args: Args) -> Result<()> {
     }
     let accel = Accel::build(&scene);
     let lights = LightSet::new(&scene);
-    let integ = Integrator::new(&scene, &accel, &lights, config.reflections as usize, width, height);
+    let integ = Integrator::new(
+        &scene,
+        &accel,
+        &lights,
+        config.reflections as usize,
+        width,
+        height,
+    );
     let model = TrueBrdfModel::new(&scene);
     let bar = (!args.json).then(|| progress_bar(height as u64, "rendering"));
     let r = render(
@@ -81,12 +91,18 @@ fn run(args: Args) -> Result<()> {
         b.finish_and_clear();
     }
     let out = args.out.unwrap_or_else(|| {
-        let stem = config.config_path.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+        let stem = config
+            .config_path
+            .file_stem()
+            .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
         let folder_name = config
             .folder()
             .file_name()
             .map_or(stem.clone(), |s| s.to_string_lossy().into_owned());
-        config.folder().join("out").join(format!("{folder_name}-reference.exr"))
+        config
+            .folder()
+            .join("out")
+            .join(format!("{folder_name}-reference.exr"))
     });
     let rgb: Vec<[f32; 3]> = r.pixels.iter().map(|p| p.to_array()).collect();
     let (w, h) = (width as usize, height as usize);
@@ -101,7 +117,12 @@ fn run(args: Args) -> Result<()> {
             .iter()
             .zip(&r.material_means)
             .filter_map(|(m, (v, n))| {
-                v.map(|v| (m.name.clone(), serde_json::json!({"mean_radiance": v.to_array(), "samples": n})))
+                v.map(|v| {
+                    (
+                        m.name.clone(),
+                        serde_json::json!({"mean_radiance": v.to_array(), "samples": n}),
+                    )
+                })
             })
             .collect();
         let json = serde_json::json!({

@@ -5,13 +5,16 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{bail, Context, Result};
 use clap::Parser;
 use prt_formats::MaterialOverride;
 use prt_runtime::{Relighter, Variant};
 
 #[derive(Parser, Debug)]
-#[command(version, about = "Relight a PRT bake file for edited materials, in milliseconds")]
+#[command(
+    version,
+    about = "Relight a PRT bake file for edited materials, in milliseconds"
+)]
 struct Args {
     /// The bake file written by `bake`.
     bake: PathBuf,
@@ -75,7 +78,11 @@ fn run(args: Args) -> Result<()> {
     if args.repeat == 0 {
         bail!("--repeat must be at least 1");
     }
-    let variant = if args.compressed { Variant::Compressed } else { Variant::Full };
+    let variant = if args.compressed {
+        Variant::Compressed
+    } else {
+        Variant::Full
+    };
     let mut times = Vec::new();
     let mut frame = r.render(variant)?;
     times.push(frame.seconds);
@@ -88,8 +95,14 @@ fn run(args: Args) -> Result<()> {
     let out = args
         .out
         .unwrap_or_else(|| args.bake.with_extension("").with_extension("relit.png"));
-    prt_formats::write_image(&out, frame.width as usize, frame.height as usize, &frame.pixels, args.exposure)
-        .with_context(|| format!("writing {}", out.display()))?;
+    prt_formats::write_image(
+        &out,
+        frame.width as usize,
+        frame.height as usize,
+        &frame.pixels,
+        args.exposure,
+    )
+    .with_context(|| format!("writing {}", out.display()))?;
     if args.json {
         println!(
             "{}",
