@@ -16,3 +16,4 @@ pub mod run;
 pub mod testing;
 pub mod basis;
 pub mod plot;
+pub mod report_pixel;
