@@ -1128,7 +1128,7 @@ error_target = 0.01
 #[test]
 fn config_default_output_and_missing_file() {
     let c = BakeConfig::from_file(scenes_dir().join("ring/bake.toml")).unwrap();
-    assert_eq!(c.output, scenes_dir().join("ring/out/bake.prtbake"));
+    assert_eq!(c.output, scenes_dir().join("ring/out/ring.prtbake"));
     match BakeConfig::from_file(scenes_dir().join("nope/bake.toml")) {
         Err(ConfigError::Io { path, .. }) => assert!(path.ends_with("nope/bake.toml")),
         other => panic!("{other:?}"),
