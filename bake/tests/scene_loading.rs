@@ -1134,7 +1134,7 @@ fn config_default_output_and_missing_file() {
         other => panic!("{other:?}"),
     }
     let c = BakeConfig::with_defaults("/x/y/scene.glb");
-    assert_eq!(c.output, PathBuf::from("/x/y/out/bake.prtbake"));
+    assert_eq!(c.output, PathBuf::from("/x/y/out/y.prtbake"));
     assert_eq!(c.scene_path, PathBuf::from("/x/y/scene.glb"));
 }
 
