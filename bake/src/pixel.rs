@@ -725,7 +725,6 @@ pub fn bake(
             slots: n0 as u32,
             active: active.iter().map(|&j| j as u32).collect(),
             row_len: compact_len as u32,
-            textured: false,
             compressed_rank: compressed.as_ref().map(|c| c.rank as u32),
             scale: 1.0,
         });

@@ -76,8 +76,6 @@ pub struct GroupMeta {
     /// Values per pixel: slots * (1 + J + J^2 ...) * channels, J = active.len(), up to
     /// `reflections - 1` factors of J.
     pub row_len: u32,
-    /// Whether the tensor `g<i>.texture` holds the diffuse texture per pixel.
-    pub textured: bool,
     /// Rank of the low-rank (PCA over pixels) variant, when the file has one.
     pub compressed_rank: Option<u32>,
     /// Stored value = true value / scale (f16 storage keeps the largest magnitude at 2^14 so
@@ -176,9 +174,9 @@ pub fn row_len(slots: usize, active: usize, reflections: usize, channels: usize)
 }
 
 /// Contraction weights of a group for the current coefficients: for each output channel c and
-/// each element e of the pixel row, `W[c][e]`, such that the radiance is
-/// `sum_e W[c][e] x[e]` plus, for textured groups, `tex_c * sum_e Wtex[c][e] x[e]`.
-/// Returns (W, Wtex), each `3 * row_len` values (channel-major). `coeff` holds the RGB
+/// each element e of the pixel row, `W[c][e]`, such that the radiance is `sum_e W[c][e] x[e]`
+/// (textures are baked into the Kd slot values, so no per-pixel factor remains).
+/// Returns W, `3 * row_len` values (channel-major). `coeff` holds the RGB
 /// coefficient of every global slot.
 pub fn group_weights(
     group: &GroupMeta,
@@ -187,7 +185,7 @@ pub fn group_weights(
     reflections: usize,
     channels: usize,
     tint: [f32; 3],
-) -> (Vec<f32>, Vec<f32>) {
+) -> Vec<f32> {
     let n0 = material.slots.len();
     let act: Vec<[f32; 3]> = group
         .active
@@ -197,15 +195,13 @@ pub fn group_weights(
     let jn = act.len();
     let len = row_len(n0, jn, reflections, channels);
     let mut w = vec![0.0f32; 3 * len];
-    let mut wt = vec![0.0f32; 3 * len];
     let base = material.slot_offset as usize;
     // Enumerate elements in storage order: depth blocks, then b0, then j1.. jk, then channel.
     let mut e = 0usize;
     let mut pow = 1usize;
     for depth in 0..reflections {
-        for (b0, slot) in material.slots.iter().enumerate() {
+        for b0 in 0..material.slots.len() {
             let c0 = coeff.get(base + b0).copied().unwrap_or([0.0; 3]);
-            let textured = material.textured && *slot == SlotKind::Kd;
             for idx in 0..pow {
                 // Product of the tint and the coefficients of the slots b0, j1..jdepth.
                 let mut prod = [c0[0] * tint[0], c0[1] * tint[1], c0[2] * tint[2]];
@@ -217,15 +213,14 @@ pub fn group_weights(
                         prod[ch] *= act[j][ch];
                     }
                 }
-                let target = if textured { &mut wt } else { &mut w };
                 if channels == 1 {
                     for ch in 0..3 {
-                        target[ch * len + e] = prod[ch];
+                        w[ch * len + e] = prod[ch];
                     }
                     e += 1;
                 } else {
                     for ch in 0..3 {
-                        target[ch * len + e + ch] = prod[ch];
+                        w[ch * len + e + ch] = prod[ch];
                     }
                     e += 3;
                 }
@@ -234,7 +229,7 @@ pub fn group_weights(
         pow = pow.saturating_mul(jn);
     }
     debug_assert_eq!(e, len);
-    (w, wt)
+    w
 }
 
 /// Index of a T_k element within a group row: depth k, slot b0, active indices js (length k,
@@ -315,13 +310,12 @@ mod tests {
             slots: 2,
             active: vec![0, 1],
             row_len: 0,
-            textured: false,
             compressed_rank: None,
             scale: 1.0,
         };
         let coeff = [[2.0, 2.0, 2.0], [3.0, 5.0, 7.0]];
         for channels in [1usize, 3] {
-            let (w, _) = group_weights(&g, &m, &coeff, 3, channels, [1.0; 3]);
+            let w = group_weights(&g, &m, &coeff, 3, channels, [1.0; 3]);
             let len = row_len(2, 2, 3, channels);
             assert_eq!(w.len(), 3 * len);
             // T2[b0=1, j1=0, j2=1], blue channel: c[1] * c[0] * c[1].

@@ -268,7 +268,7 @@ impl Relighter {
         let mut groups = Vec::with_capacity(self.meta.groups.len());
         for (g, gm) in self.meta.groups.iter().enumerate() {
             let m = &self.meta.materials[gm.material as usize];
-            let (w, _) = group_weights(gm, m, &coeff, reflections, channels, self.meta.tint);
+            let w = group_weights(gm, m, &coeff, reflections, channels, self.meta.tint);
             let len = gm.row_len as usize;
             let pixels = self.file.tensor(&format!("g{g}.pixels"))?.as_u32()?;
             bytes_read += (pixels.len() * 4) as u64;
