@@ -42,8 +42,58 @@ pub fn load(config_path: &Path) -> Result<(BakeConfig, Scene)> {
     Ok((config, scene))
 }
 
-/// Builds one basis per family used by an editable glossy material, with `count` bases each.
+/// How many basis BRDFs each editable glossy family gets.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BasisCount {
+    Fixed(usize),
+    /// The smallest N_b in 2..=12 whose max relative L2 reconstruction error over the family's
+    /// sampled lobes (docs/brdf-basis.md) is at most this.
+    ErrorTarget(f64),
+}
+
+/// Largest N_b the error-target selection considers.
+const MAX_SELECTED_COUNT: usize = 12;
+
+/// Picks N_b for `family` by error target (measured on the family's default sampling).
+fn count_for_target(family: Family, target: f64, verbose: bool) -> Result<usize> {
+    if target.is_nan() || target <= 0.0 {
+        bail!("the basis error target must be a positive relative error, e.g. 0.01 (got {target})");
+    }
+    let cfg = BasisConfig::new(family, MAX_SELECTED_COUNT).map_err(anyhow::Error::msg)?;
+    let counts: Vec<usize> = (2..=MAX_SELECTED_COUNT).collect();
+    let (report, _) =
+        crate::basis::report::family_report(&cfg, &counts, 2, 64).map_err(anyhow::Error::msg)?;
+    let chosen = crate::basis::report::select_count(&report, target, false);
+    let nb = chosen.unwrap_or(MAX_SELECTED_COUNT);
+    if verbose {
+        let err = report
+            .rows
+            .iter()
+            .find(|r| r.num_bases == nb)
+            .map_or(f64::NAN, |r| r.ours.max);
+        match chosen {
+            Some(_) => eprintln!(
+                "basis {}: N_b = {nb} meets the error target {} (max relative L2 error {err:.4})",
+                family.name(),
+                target as f32
+            ),
+            None => eprintln!(
+                "warning: basis {}: no N_b up to {MAX_SELECTED_COUNT} meets the error target {}; using {nb} (max error {err:.4})",
+                family.name(),
+                target as f32
+            ),
+        }
+    }
+    Ok(nb)
+}
+
+/// Builds one basis per family used by an editable glossy material.
 pub fn build_bases(scene: &Scene, count: usize, verbose: bool) -> Result<Vec<BrdfBasis>> {
+    build_bases_by(scene, BasisCount::Fixed(count), verbose)
+}
+
+/// Builds one basis per family used by an editable glossy material, sized by `count`.
+pub fn build_bases_by(scene: &Scene, count: BasisCount, verbose: bool) -> Result<Vec<BrdfBasis>> {
     let mut families: Vec<Family> = Vec::new();
     for m in &scene.materials {
         if m.editable && m.brdf.family != Family::Diffuse && !families.contains(&m.brdf.family) {
@@ -53,6 +103,10 @@ pub fn build_bases(scene: &Scene, count: usize, verbose: bool) -> Result<Vec<Brd
     let mut out = Vec::new();
     for f in families {
         let start = Instant::now();
+        let count = match count {
+            BasisCount::Fixed(n) => n,
+            BasisCount::ErrorTarget(t) => count_for_target(f, t, verbose)?,
+        };
         let cfg = BasisConfig::new(f, count).map_err(anyhow::Error::msg)?;
         let built = BasisBuilder::new(cfg)
             .and_then(|b| b.build(count))
@@ -104,14 +158,19 @@ pub fn run_pixel(
     s: &PixelRunSettings,
 ) -> Result<PixelRunSummary> {
     let start = Instant::now();
-    let count = s
-        .basis_count
-        .or(config
-            .basis
-            .as_ref()
-            .and_then(|b| b.count.map(|c| c as usize)))
-        .unwrap_or(DEFAULT_BASIS_COUNT);
-    let bases = build_bases(scene, count, !s.quiet)?;
+    // An explicit count wins; else the config's error target; else the default.
+    let basis_cfg = config.basis.as_ref();
+    let count = match (
+        s.basis_count,
+        basis_cfg.and_then(|b| b.count),
+        basis_cfg.and_then(|b| b.error_target),
+    ) {
+        (Some(n), _, _) => BasisCount::Fixed(n),
+        (None, Some(n), _) => BasisCount::Fixed(n as usize),
+        (None, None, Some(t)) => BasisCount::ErrorTarget(t as f64),
+        (None, None, None) => BasisCount::Fixed(DEFAULT_BASIS_COUNT),
+    };
+    let bases = build_bases_by(scene, count, !s.quiet)?;
     let basis_seconds = start.elapsed().as_secs_f64();
     let layout = SlotLayout::new(scene, &bases).map_err(anyhow::Error::msg)?;
     let opts = PixelBakeOptions {
