@@ -59,9 +59,11 @@ impl Accel {
                 original: Vec::new(),
             };
         }
+        // Pre-splitting large triangles (slow_build) pays off on scenes mixing big walls with
+        // fine meshes: measured up to 1.7x faster short (occlusion) rays, never slower.
         let bvh = build_cwbvh_from_tris(
             tris,
-            BvhBuildParams::medium_build(),
+            BvhBuildParams::slow_build(),
             &mut std::time::Duration::default(),
         );
         let original: Vec<u32> = bvh.primitive_indices.clone();
