@@ -113,8 +113,9 @@ struct Plan {
     nb_sweep: Vec<usize>,
     main_nb: usize,
     table_rank: usize,
-    grid: AngularGrid,
-    param_samples: usize,
+    /// Basis grid and parameter samples; None = the builder's defaults (what `bake` uses).
+    grid: Option<AngularGrid>,
+    param_samples: Option<usize>,
 }
 
 impl Plan {
@@ -137,8 +138,8 @@ impl Plan {
             nb_sweep: (2..=10).collect(),
             main_nb: 6,
             table_rank: 8,
-            grid: AngularGrid::THESIS,
-            param_samples: 256,
+            grid: None,
+            param_samples: None,
         }
     }
 
@@ -161,12 +162,12 @@ impl Plan {
             nb_sweep: vec![2, 4],
             main_nb: 4,
             table_rank: 2,
-            grid: AngularGrid {
+            grid: Some(AngularGrid {
                 n_theta_i: 8,
                 n_theta_o: 8,
                 n_phi: 16,
-            },
-            param_samples: 32,
+            }),
+            param_samples: Some(32),
         }
     }
 }
@@ -505,17 +506,20 @@ impl SceneCtx {
 
 /// Tabulates each family's lobes once and builds bases of any size from that.
 struct BasisCache {
-    grid: AngularGrid,
-    param_samples: usize,
+    grid: Option<AngularGrid>,
+    param_samples: Option<usize>,
+    /// The grid and parameter samples actually used, for the report.
+    used: Option<(AngularGrid, usize)>,
     builders: Vec<(Family, BasisBuilder, f64)>,
     built: Vec<(Family, usize, BrdfBasis, f64)>,
 }
 
 impl BasisCache {
-    fn new(grid: AngularGrid, param_samples: usize) -> Self {
+    fn new(grid: Option<AngularGrid>, param_samples: Option<usize>) -> Self {
         BasisCache {
             grid,
             param_samples,
+            used: None,
             builders: Vec::new(),
             built: Vec::new(),
         }
@@ -539,8 +543,13 @@ impl BasisCache {
             if !self.builders.iter().any(|(g, _, _)| *g == f) {
                 let t = Instant::now();
                 let mut cfg = BasisConfig::new(f, count).map_err(anyhow::Error::msg)?;
-                cfg.grid = self.grid;
-                cfg.param_samples = self.param_samples;
+                if let Some(g) = self.grid {
+                    cfg.grid = g;
+                }
+                if let Some(n) = self.param_samples {
+                    cfg.param_samples = n;
+                }
+                self.used = Some((cfg.grid, cfg.param_samples));
                 let b = BasisBuilder::new(cfg)
                     .map_err(|e| anyhow::anyhow!("tabulating the {} basis: {e}", f.name()))?;
                 self.builders.push((f, b, t.elapsed().as_secs_f64()));
@@ -881,6 +890,7 @@ struct Report {
     total_s: f64,
     main_name: String,
     main_reflections: u32,
+    basis_grid: Option<(AngularGrid, usize)>,
     bandwidth: Bandwidth,
     bake_rows: Vec<BakeRow>,
     ratio_rows: Vec<BakeRow>,
@@ -1301,6 +1311,7 @@ pub fn run(opts: &ReportOptions) -> Result<ReportSummary> {
         total_s: 0.0,
         main_name: main.name.clone(),
         main_reflections: main.config.reflections,
+        basis_grid: cache.used,
         bandwidth,
         bake_rows,
         ratio_rows,
@@ -1756,13 +1767,13 @@ fn markdown(r: &Report) -> String {
     let _ = writeln!(s, "## 1. Bake\n");
     let _ = writeln!(
         s,
-        "Scene `{}` ({} reflections, f16 storage). Bake time covers tracing, gathering and compacting (acceleration structure included); the basis build (tabulating the family's lobes on a {}x{}x{} grid at {} parameter values, then PCA) is reported separately and excluded from the ratio. The reference render is the true-BRDF path tracer at the same size, spp, reflections and seed (acceleration structure included). Rays counts every ray traced (camera, bounce and shadow rays).\n",
+        "Scene `{}` ({} reflections, f16 storage). Bake time covers tracing, gathering and compacting (acceleration structure included); the basis build (tabulating the family's lobes on {}, then PCA; the builder's defaults unless `--quick`) is reported separately and excluded from the ratio. The reference render is the true-BRDF path tracer at the same size, spp, reflections and seed (acceleration structure included). Rays counts every ray traced (camera, bounce and shadow rays).\n",
         r.main_name,
         r.main_reflections,
-        r.plan.grid.n_theta_i,
-        r.plan.grid.n_theta_o,
-        r.plan.grid.n_phi,
-        r.plan.param_samples
+        match r.basis_grid {
+            Some((g, n)) => format!("a {}x{}x{} grid at {n} parameter values", g.n_theta_i, g.n_theta_o, g.n_phi),
+            None => "no grid: no editable glossy material".into(),
+        }
     );
     bake_table(&mut s, &r.bake_rows);
     let _ = writeln!(
