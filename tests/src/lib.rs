@@ -11,13 +11,14 @@ use prt_bake::scene::{Environment, PunctualLight, Scene};
 use prt_bake::testing::{look_at, SceneBuilder};
 use prt_formats::basis::{AngularGrid, BrdfBasis};
 
-/// A small basis (coarse grid, few parameter samples) so tests build it in milliseconds.
+/// A small basis (coarse grid, few parameter samples) so tests build it in milliseconds: the
+/// default half/difference grid kind at 24 theta_h x 16 theta_d x 4 phi_d nodes.
 pub fn small_basis(family: Family, count: usize) -> BrdfBasis {
     let mut cfg = BasisConfig::new(family, count).expect("basis config");
     cfg.grid = AngularGrid {
-        n_theta_i: 10,
-        n_theta_o: 10,
-        n_phi: 16,
+        n_theta_i: 24,
+        n_theta_o: 16,
+        n_phi: 4,
     };
     cfg.param_samples = 24;
     BasisBuilder::new(cfg)

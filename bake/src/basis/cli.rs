@@ -7,7 +7,7 @@ use super::tucker::{self, HemiGrid, TuckerReport};
 use super::{BasisConfig, FamilySpec};
 use crate::brdf::Family;
 use anyhow::{anyhow, bail, Context, Result};
-use prt_formats::basis::AngularGrid;
+use prt_formats::basis::{AngularGrid, GridKind, GridSpec};
 use std::path::PathBuf;
 
 /// Arguments of `bake basis`.
@@ -31,9 +31,14 @@ pub struct BasisArgs {
     /// Parameter range "lo,hi" (default: s in 1,200 for blinn-phong; alpha in 0.02,1 for ggx).
     #[arg(long)]
     pub range: Option<String>,
-    /// Angular grid "n_theta_i x n_theta_o x n_phi".
-    #[arg(long, default_value = "30x30x60")]
-    pub grid: String,
+    /// Table grid sizes "n1 x n2 x n3" along the grid kind's axes (default: 96x64x8 for
+    /// half-diff, the thesis' 30x30x60 for angles).
+    #[arg(long)]
+    pub grid: Option<String>,
+    /// Table grid: half-diff (theta_h, theta_d, phi_d, graded; default) or angles (the
+    /// thesis' uniform theta_i, theta_o, phi; default with --thesis-method).
+    #[arg(long)]
+    pub grid_kind: Option<String>,
     /// Lobes sampled (uniformly in the warped parameter) to build the basis.
     #[arg(long, default_value_t = 256)]
     pub samples: usize,
@@ -123,7 +128,18 @@ pub fn config_from_args(args: &BasisArgs) -> Result<BasisConfig> {
         }
         cfg.spec = cfg.spec.with_range(v[0], v[1]).map_err(|e| anyhow!(e))?;
     }
-    cfg.grid = parse_grid(&args.grid)?;
+    let kind = match args.grid_kind.as_deref() {
+        None if args.thesis_method => GridKind::Angles,
+        None | Some("half-diff") => GridKind::HalfDiff,
+        Some("angles") => GridKind::Angles,
+        Some(k) => bail!("unknown --grid-kind {k:?} (half-diff or angles)"),
+    };
+    let dims = match &args.grid {
+        Some(g) => parse_grid(g)?,
+        None if kind == GridKind::Angles => AngularGrid::THESIS,
+        None => GridSpec::DEFAULT.dims,
+    };
+    cfg = cfg.with_grid(GridSpec::new(kind, dims));
     if args.samples < 2 || args.samples > 4096 {
         bail!("--samples must be in 2..=4096");
     }
@@ -203,15 +219,18 @@ pub fn run(args: &BasisArgs) -> Result<()> {
             println!("target met by N_b = {nb}");
         }
         println!(
-            "end-to-end error vs the exact lobe, off-grid (N_b = {}):",
-            basis.num_bases
+            "end-to-end error vs the exact lobe, off-grid (N_b = {}, {} Monte Carlo pairs):",
+            basis.num_bases,
+            sharp.first().map_or(0, |c| c.samples)
         );
         for c in &sharp {
             println!(
-                "  p = {:>8}: basis {:>8.3} %, grid alone {:>8.3} %{}{}",
+                "  p = {:>8}: basis {:>8.3} % (+- {:.3}), grid alone {:>8.3} % (+- {:.3}){}{}",
                 c.param,
                 100.0 * c.basis,
+                100.0 * c.basis_stderr,
                 100.0 * c.grid_only,
+                100.0 * c.grid_only_stderr,
                 if c.clamped {
                     " (outside range: clamped)"
                 } else {
@@ -233,8 +252,8 @@ pub fn sharp_checks(
     basis: &prt_formats::basis::BrdfBasis,
 ) -> Vec<report::ContinuousError> {
     let params: Vec<f64> = match spec.family {
-        Family::BlinnPhong => vec![1.0, 10.0, 50.0, 200.0, 2000.0],
-        Family::Ggx => vec![1.0, 0.3, 0.1, 0.05, 0.02, 0.01],
+        Family::BlinnPhong => vec![1.0, 10.0, 50.0, 100.0, 200.0, 2000.0],
+        Family::Ggx => vec![1.0, 0.5, 0.2, 0.1, 0.05, 0.02, 0.01],
         Family::Diffuse => vec![],
     };
     params

@@ -2,10 +2,12 @@
 //! `cargo run --release --bin bake -- basis --report docs/brdf-basis.md`.
 
 use super::cli::{family_reports, format_tucker, run_tucker, sharp_checks, BasisArgs};
-use super::report::FamilyReport;
+use super::report::{time_runtime, FamilyReport};
 use super::tucker::TuckerReport;
+use super::BasisBuilder;
 use crate::plot::{LinePlot, Series};
 use anyhow::{Context, Result};
+use prt_formats::basis::GridSpec;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -173,7 +175,9 @@ pub fn write_report(md_path: &Path, args: &BasisArgs) -> Result<Vec<PathBuf>> {
          `f cos(theta_i)` relative to the lobe's largest `f cos(theta_i)` (Kd = 0, Ks = 1, the \
          worst case); \"neg. mass\" the largest cosine-weighted L2 norm of the negative part \
          relative to the lobe's norm.\n",
-        args.grid,
+        reps.first()
+            .map(|(_, _, c)| c.grid_spec().describe())
+            .unwrap_or_default(),
         args.samples,
         args.eval_samples,
         0.0f64.max(t0.elapsed().as_secs_f64())
@@ -199,15 +203,10 @@ pub fn write_report(md_path: &Path, args: &BasisArgs) -> Result<Vec<PathBuf>> {
     }
     md += "- The thesis reports, for Blinn-Phong at N_b = 6 on its grid, mean 0.7979 % and max \
            6.747 % (its metric).\n- GGX over [0.02, 1] is much harder than Blinn-Phong over \
-           [1, 200]: alpha = 0.02 is a lobe of about one degree, narrower than the 3-degree grid \
-           spacing, and it is always the worst lobe; see the end-to-end table, where the grid \
-           alone already misses a large part of such lobes. The errors for the sharpest lobes are \
-           large and we report them as measured. For GGX the end-to-end error exceeds 100 % \
-           below alpha ~ 0.1 even for the grid alone: `G1(c)/c` rises from about `1/c` to `2/alpha` \
-           within `c ~ alpha` of the horizon, so the horizon nodes (which hold that limit) are \
-           far from the true values across the whole last 3-degree cell, and trilinear \
-           interpolation spreads them over it. A finer or horizon-graded theta grid (not done \
-           yet) is needed for alpha below ~0.1; the table-space errors above do not see this.\n\n";
+           [1, 200]: alpha = 0.02 is a lobe of about one degree with long tails, and it is always \
+           the worst lobe. The grid resolves it (see \"grid alone\" in the end-to-end tables); \
+           what remains at N_b = 6 is the PCA truncation, which the table-space errors above and \
+           the end-to-end errors below agree on.\n\n";
     for ((r, basis, cfg), t) in reps.iter().zip(&tuckers) {
         let _ = writeln!(
             md,
@@ -218,24 +217,74 @@ pub fn write_report(md_path: &Path, args: &BasisArgs) -> Result<Vec<PathBuf>> {
             r.param_range[1]
         );
         md += &table_md(r);
+        // the schema-1 configuration: same method on the thesis grid
+        let legacy_cfg = cfg.clone().with_grid(GridSpec::THESIS);
+        let legacy = BasisBuilder::new(legacy_cfg)
+            .and_then(|b| b.build(basis.num_bases))
+            .map_err(anyhow::Error::msg)?
+            .to_persisted();
+        let lt = time_runtime(&legacy);
+        let nt = time_runtime(basis);
         let _ = writeln!(
             md,
             "\n![error vs N_b](img/brdf-basis-error-{}.png)\n\n\
-             Setup (tabulating {} lobes and one QR): {:.0} ms. Runtime, N_b = {}: \
-             `eval_all` {:.1} ns per direction pair (all bases, trilinear, random directions), \
-             `coefficients` {:.1} ns per call.\n",
-            r.family, r.build_samples, r.setup_ms, r.chosen, r.eval_all_ns, r.coefficients_ns
+             Setup (tabulating {} lobes and one QR): {:.0} ms. Runtime, N_b = {}, random direction \
+             pairs, all bases at once (minimum over 24 rounds; the thesis-grid basis timed in the \
+             same run): `eval_all` {:.1} ns per pair ({:.1} ns on the thesis grid), \
+             `eval_all_local` (the baker's entry point) {:.1} ns ({:.1} ns), `coefficients` {:.1} ns \
+             per call. Tables: {} nodes x {} bases = {} f32 ({:.2} MB; the thesis grid: {} nodes, \
+             {:.2} MB).\n",
+            r.family,
+            r.build_samples,
+            r.setup_ms,
+            r.chosen,
+            nt.eval_all_ns,
+            lt.eval_all_ns,
+            nt.eval_local_ns,
+            lt.eval_local_ns,
+            nt.coefficients_ns,
+            basis.grid.len(),
+            basis.num_bases,
+            basis.tables.len(),
+            basis.tables.len() as f64 * 4e-6,
+            legacy.grid.len(),
+            legacy.tables.len() as f64 * 4e-6
         );
-        let _ = writeln!(md, "End-to-end error against the exact lobe, off the grid (midpoints of a 2x finer grid), N_b = {}; \"grid alone\" interpolates the lobe's own exact table, so it is the share of the angular grid:\n", basis.num_bases);
-        md += "| parameter | basis + runtime % | grid alone % | note |\n|---:|---:|---:|---|\n";
-        for c in sharp_checks(&cfg.spec, basis) {
+        let now = sharp_checks(&cfg.spec, basis);
+        let before = sharp_checks(&cfg.spec, &legacy);
+        let rel_se = now
+            .iter()
+            .chain(&before)
+            .flat_map(|c| {
+                [
+                    c.basis_stderr / c.basis.max(1e-300),
+                    c.grid_only_stderr / c.grid_only.max(1e-300),
+                ]
+            })
+            .fold(0.0f64, f64::max);
+        let _ = writeln!(
+            md,
+            "End-to-end error against the exact lobe (the Monte Carlo measure above, {} direction \
+             pairs; standard errors at most {:.1} % of the values), N_b = {}. \"grid alone\" \
+             interpolates the lobe's own exact table, so it is the grid's share. *Now*: {} grid; \
+             *before*: the thesis grid ({}, schema 1), same method:\n",
+            now.first().map_or(0, |c| c.samples),
+            100.0 * rel_se,
+            basis.num_bases,
+            basis.grid_spec().describe(),
+            GridSpec::THESIS.describe()
+        );
+        md += "| parameter | now: basis + runtime % | now: grid alone % | before: basis + runtime % | before: grid alone % | note |\n|---:|---:|---:|---:|---:|---|\n";
+        for (c, b) in now.iter().zip(&before) {
             let _ = writeln!(
                 md,
-                "| {} | {} | {} | {} |",
+                "| {} | {} | {} | {} | {} | {} |",
                 c.param,
                 pct(c.basis),
                 pct(c.grid_only),
-                match (c.clamped, c.finite) {
+                pct(b.basis),
+                pct(b.grid_only),
+                match (c.clamped, c.finite && b.finite) {
                     (_, false) => "non-finite!",
                     (true, _) => "outside the range: clamped",
                     _ => "",

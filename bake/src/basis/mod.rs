@@ -19,7 +19,9 @@ pub mod tucker;
 use crate::brdf::Family;
 use faer::Mat;
 use pca::{PcaBuilder, PcaModel, PcaOptions, SampleDensity};
-use prt_formats::basis::{AngularGrid, BrdfBasis, ParamWarp, BASIS_SCHEMA_VERSION};
+use prt_formats::basis::{
+    AngularGrid, BrdfBasis, GridKind, GridSpec, ParamWarp, BASIS_SCHEMA_VERSION,
+};
 use std::f64::consts::FRAC_1_PI;
 
 /// A family's parameter space: which lobe, over what range, interpolated in what warp.
@@ -75,7 +77,10 @@ impl FamilySpec {
 #[derive(Clone, Debug, PartialEq)]
 pub struct BasisConfig {
     pub spec: FamilySpec,
+    /// Node counts of the table grid's three axes (see `grid_kind`).
     pub grid: AngularGrid,
+    /// What the grid's axes are.
+    pub grid_kind: GridKind,
     /// Lobes sampled (uniformly in the warped parameter) to build the basis; also the
     /// coefficient table's resolution.
     pub param_samples: usize,
@@ -85,15 +90,29 @@ pub struct BasisConfig {
 }
 
 impl BasisConfig {
-    /// Our default configuration for a family: thesis grid 30x30x60, 256 parameter samples.
+    /// Our default configuration for a family: the half/difference grid 96x64x8
+    /// ([`GridSpec::DEFAULT`]), 256 parameter samples.
     pub fn new(family: Family, num_bases: usize) -> Result<BasisConfig, String> {
         Ok(BasisConfig {
             spec: FamilySpec::default_for(family)?,
-            grid: AngularGrid::THESIS,
+            grid: GridSpec::DEFAULT.dims,
+            grid_kind: GridSpec::DEFAULT.kind,
             param_samples: 256,
             num_bases,
             options: PcaOptions::ours(),
         })
+    }
+
+    /// The table grid (kind and sizes).
+    pub fn grid_spec(&self) -> GridSpec {
+        GridSpec::new(self.grid_kind, self.grid)
+    }
+
+    /// Sets the table grid.
+    pub fn with_grid(mut self, grid: GridSpec) -> BasisConfig {
+        self.grid = grid.dims;
+        self.grid_kind = grid.kind;
+        self
     }
 
     fn check(&self) -> Result<(), String> {
@@ -146,10 +165,10 @@ impl BasisBuilder {
     pub fn new(config: BasisConfig) -> Result<BasisBuilder, String> {
         config.check()?;
         let params = grid::param_samples(config.spec.range, config.spec.warp, config.param_samples);
-        let lobes = grid::tabulate(config.spec.family, &config.grid, &params);
+        let g = config.grid_spec();
+        let lobes = grid::tabulate(config.spec.family, &g, &params);
         let prior = sample_prior(&config.spec, &params, config.options.density);
-        let pca =
-            PcaBuilder::with_prior(lobes.as_ref(), config.grid, config.options.clone(), &prior)?;
+        let pca = PcaBuilder::with_prior(lobes.as_ref(), g, config.options.clone(), &prior)?;
         Ok(BasisBuilder {
             config,
             params,
@@ -214,7 +233,8 @@ impl BuiltBasis {
             param_range: [self.spec.range.0 as f32, self.spec.range.1 as f32],
             param_warp: self.spec.warp,
             param_samples: self.params.iter().map(|&p| p as f32).collect(),
-            grid: g,
+            grid: g.dims,
+            grid_kind: g.kind,
             num_bases: nb,
             tables,
             coefficients: self

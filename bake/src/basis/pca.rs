@@ -18,7 +18,7 @@
 
 use super::linalg::{fix_sign, qr_r, svd_thin};
 use faer::{Mat, MatRef};
-use prt_formats::basis::AngularGrid;
+use prt_formats::basis::GridSpec;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::FRAC_1_PI;
 
@@ -33,7 +33,7 @@ pub enum Weighting {
 }
 
 impl Weighting {
-    pub fn weights(self, grid: &AngularGrid) -> Vec<f64> {
+    pub fn weights(self, grid: &GridSpec) -> Vec<f64> {
         match self {
             Weighting::Uniform => super::grid::uniform_weights(grid),
             Weighting::Cosine => super::grid::cosine_weights(grid),
@@ -128,7 +128,7 @@ pub fn rel_err_w(w: &[f64], a: &[f64], b: &[f64]) -> f64 {
 /// A built PCA basis in f64: the Lambert basis `1/pi` plus `bases.len()` PCA bases.
 #[derive(Clone, Debug)]
 pub struct PcaModel {
-    pub grid: AngularGrid,
+    pub grid: GridSpec,
     pub options: PcaOptions,
     /// Inner-product weights used to build (and project onto) the basis.
     pub weights: Vec<f64>,
@@ -187,7 +187,7 @@ impl PcaModel {
 
 /// Reusable state for building bases of several sizes from the same lobes.
 pub struct PcaBuilder {
-    grid: AngularGrid,
+    grid: GridSpec,
     options: PcaOptions,
     w: Vec<f64>,
     resid: Mat<f64>,
@@ -204,7 +204,7 @@ impl PcaBuilder {
     /// non-finite input.
     pub fn new(
         lobes: MatRef<'_, f64>,
-        grid: AngularGrid,
+        grid: GridSpec,
         options: PcaOptions,
     ) -> Result<Self, String> {
         let p = lobes.ncols();
@@ -214,7 +214,7 @@ impl PcaBuilder {
     /// As [`PcaBuilder::new`] with a prior weight per sample (nonnegative, not all zero).
     pub fn with_prior(
         lobes: MatRef<'_, f64>,
-        grid: AngularGrid,
+        grid: GridSpec,
         options: PcaOptions,
         prior: &[f64],
     ) -> Result<Self, String> {
