@@ -225,12 +225,14 @@ pub fn run(args: &BasisArgs) -> Result<()> {
         );
         for c in &sharp {
             println!(
-                "  p = {:>8}: basis {:>8.3} % (+- {:.3}), grid alone {:>8.3} % (+- {:.3}){}{}",
+                "  p = {:>8}: basis {:>8.3} % (+- {:.3}), grid alone {:>8.3} % (+- {:.3}); albedo max error: basis {:.2} %, grid alone {:.2} %{}{}",
                 c.param,
                 100.0 * c.basis,
                 100.0 * c.basis_stderr,
                 100.0 * c.grid_only,
                 100.0 * c.grid_only_stderr,
+                100.0 * c.albedo_max,
+                100.0 * c.albedo_grid_max,
                 if c.clamped {
                     " (outside range: clamped)"
                 } else {

@@ -184,6 +184,10 @@ pub struct NbRow {
     /// Ours, measured with the thesis' metric: the plain norm of the samples at the thesis
     /// grid's nodes, where our basis is evaluated by the runtime (`eval_all`).
     pub ours_uniform_metric: ErrStats,
+    /// As `ours_uniform_metric` without the thesis grid's horizon nodes (theta_i or theta_o
+    /// exactly 90 degrees, where the exact tables hold the grazing limit and our cosine-weighted
+    /// PCA does not constrain the bases).
+    pub ours_uniform_metric_inner: ErrStats,
     /// The thesis' method (raw lobes, uniform norm, PCA of the evaluation lobes themselves, on
     /// the thesis grid), measured with its own metric.
     pub thesis: ErrStats,
@@ -246,6 +250,18 @@ pub fn family_report(
     let wc_t = cosine_weights(&tg);
     let wu_t = uniform_weights(&tg);
     let cos_i_t = node_cos_i(&tg);
+    let wu_inner: Vec<f64> = tg
+        .nodes()
+        .iter()
+        .zip(&wu_t)
+        .map(|(n, w)| {
+            if n.cos_theta_i > 1e-9 && n.cos_theta_o > 1e-9 {
+                *w
+            } else {
+                0.0
+            }
+        })
+        .collect();
     let mut rows = Vec::new();
     let mut chosen_basis = None;
     for &nb in counts {
@@ -257,6 +273,9 @@ pub fn family_report(
         let (ours, negativity) = measure(&eval, &wc, &wc, &cos_i, pr);
         let at_t = basis_at_nodes(&persisted, &tg);
         let (ours_uniform_metric, _) = measure(eval_t, &wu_t, &wc_t, &cos_i_t, |j| {
+            recon_from_values(&persisted, &at_t, eval_t.params[j])
+        });
+        let (ours_uniform_metric_inner, _) = measure(eval_t, &wu_inner, &wc_t, &cos_i_t, |j| {
             recon_from_values(&persisted, &at_t, eval_t.params[j])
         });
         let (ours_projected, _) = measure(&eval, &wc, &wc, &cos_i, |j| {
@@ -271,6 +290,7 @@ pub fn family_report(
             ours,
             ours_projected,
             ours_uniform_metric,
+            ours_uniform_metric_inner,
             thesis: th,
             thesis_cosine_metric: thc,
             negativity,
@@ -458,6 +478,30 @@ pub struct ContinuousError {
     pub samples: usize,
     /// Whether all reconstructed values were finite.
     pub finite: bool,
+    /// Largest error of the directional albedo `a(wo) = ∫ f cos_i dwi` over the view angles
+    /// [`ALBEDO_THETAS_DEG`], relative to the largest exact albedo over those angles (see
+    /// [`albedo_errors`]; Blinn-Phong's albedo falls to a few percent of its peak at grazing
+    /// views, so errors relative to each angle's own albedo would overstate what a renderer
+    /// shows there): basis + runtime, and grid alone.
+    pub albedo_max: f64,
+    pub albedo_grid_max: f64,
+}
+
+/// View angles (degrees from the normal) of the albedo check.
+pub const ALBEDO_THETAS_DEG: [f64; 5] = [0.0, 30.0, 60.0, 80.0, 88.0];
+
+/// Pairs per view angle of the albedo check.
+pub const ALBEDO_SAMPLES: usize = 1 << 18;
+
+/// Directional albedo of the exact lobe and of two reconstructions at one view angle.
+#[derive(Clone, Debug, Serialize)]
+pub struct AlbedoError {
+    pub theta_o_deg: f64,
+    pub exact: f64,
+    /// Basis + runtime (`coefficients`, `eval_all_local`).
+    pub basis: f64,
+    /// The lobe's own table on the basis' grid.
+    pub grid_only: f64,
 }
 
 /// Direction pairs [`continuous_error`] samples.
@@ -560,7 +604,21 @@ pub fn continuous_error_n(
         let var = e.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (e.len() - 1) as f64;
         (var / e.len() as f64).sqrt()
     };
+    let albedo = albedo_errors(basis, &own, &c, family, param, ALBEDO_SAMPLES);
+    let top = albedo.iter().map(|x| x.exact).fold(0.0, f64::max);
+    let worst = |pick: fn(&AlbedoError) -> f64| {
+        if top > 0.0 {
+            albedo
+                .iter()
+                .map(|x| (pick(x) - x.exact).abs() / top)
+                .fold(0.0, f64::max)
+        } else {
+            0.0
+        }
+    };
     ContinuousError {
+        albedo_max: worst(|x| x.basis),
+        albedo_grid_max: worst(|x| x.grid_only),
         param,
         clamped,
         basis: rel(nb, den),
@@ -570,6 +628,72 @@ pub fn continuous_error_n(
         samples: per * BATCHES,
         finite: batches.iter().all(|x| x.3),
     }
+}
+
+/// Directional albedo `a(wo) = ∫ f(wi, wo) cos_i dwi` of the exact lobe, of the runtime
+/// reconstruction from `basis` with coefficients `c`, and of the one-basis table `own`, at the
+/// view angles [`ALBEDO_THETAS_DEG`]: Monte Carlo with `samples` directions `wi` per angle from
+/// the even mixture of cosine-weighted and lobe sampling (as [`continuous_error_n`]), the same
+/// directions for all three, fixed seeds. The albedo is what a glossy surface under uniform
+/// light shows, and unlike the L2 error it is not dominated by the lobe's peak: a broad error
+/// of small amplitude next to a sharp peak moves it a lot.
+pub fn albedo_errors(
+    basis: &BrdfBasis,
+    own: &BrdfBasis,
+    c: &[f32],
+    family: Family,
+    param: f64,
+    samples: usize,
+) -> Vec<AlbedoError> {
+    ALBEDO_THETAS_DEG
+        .par_iter()
+        .enumerate()
+        .map(|(j, &deg)| {
+            let t = deg.to_radians();
+            let wo = [t.sin(), 0.0, t.cos()];
+            let mut rng =
+                Xorshift(0x2545_F491_4F6C_DD1D ^ ((j as u64 + 1) * 0x9E37_79B9_7F4A_7C15));
+            let mut out = vec![0.0f32; basis.num_bases];
+            let mut one = [0.0f32];
+            let (mut ex, mut rb, mut rg) = (0.0, 0.0, 0.0);
+            for _ in 0..samples {
+                let (u0, u1, u2) = (rng.next(), rng.next(), rng.next());
+                let wi = if u0 < 0.5 {
+                    cosine_dir(u1, u2)
+                } else {
+                    let h = sample_half(family, param, u1, u2);
+                    let d = wo[0] * h[0] + wo[1] * h[1] + wo[2] * h[2];
+                    [
+                        2.0 * d * h[0] - wo[0],
+                        2.0 * d * h[1] - wo[1],
+                        2.0 * d * h[2] - wo[2],
+                    ]
+                };
+                if wi[2] <= 0.0 {
+                    continue;
+                }
+                let p = 0.5 * wi[2] / std::f64::consts::PI + 0.5 * lobe_pdf(family, param, wi, wo);
+                let w = wi[2] / p;
+                let (wi32, wo32) = (to_f32(wi), to_f32(wo));
+                basis.eval_all_local(wi32, wo32, &mut out);
+                own.eval_all_local(wi32, wo32, &mut one);
+                ex += w * lobe_vectors(family, param, wi, wo);
+                rb += w * out
+                    .iter()
+                    .zip(c)
+                    .map(|(a, b)| *a as f64 * *b as f64)
+                    .sum::<f64>();
+                rg += w * one[0] as f64;
+            }
+            let n = samples.max(1) as f64;
+            AlbedoError {
+                theta_o_deg: deg,
+                exact: ex / n,
+                basis: rb / n,
+                grid_only: rg / n,
+            }
+        })
+        .collect()
 }
 
 struct Xorshift(u64);
