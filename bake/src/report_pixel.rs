@@ -1729,7 +1729,7 @@ fn markdown(r: &Report) -> String {
             row.width,
             row.height,
             row.spp,
-            if r.ratio_rows.iter().all(|x| x.bake_s <= 2.0 * x.ref_s.unwrap_or(0.0)) && ratio.is_finite() { "within 2x" } else { "no" }
+            if r.ratio_rows.iter().all(|x| x.bake_s <= 1.5 * x.ref_s.unwrap_or(0.0)) && ratio.is_finite() { "yes (within 1.5x)" } else { "no" }
         );
     }
     if let Some(f) = full {
@@ -1814,7 +1814,7 @@ fn markdown(r: &Report) -> String {
     );
     let _ = writeln!(
         s,
-        "Relight through `prt_runtime::Relighter::render` on {threads} threads, one bake ({} spp, N_b = {}) written as f16, as f32 and with a compressed variant per rank. All variants are timed interleaved, frame by frame in round-robin, so a burst of load on the shared machine hits them alike; each frame restores the starting values and applies the next of the {} settings of section 3 (so every frame recomputes its coefficients). Time per frame: median of {} frames after 2 warm-up rounds. Bytes read is the runtime's own count per frame; the bound is bytes read / bandwidth. Added error: largest relative L2 difference between the compressed and the uncompressed (f16) relight over those settings. The PCA over pixels to rank {} took {:.2} s (computed once, truncated for smaller ranks).\n",
+        "Relight through `prt_runtime::Relighter::render` on {threads} threads, one bake ({} spp, N_b = {}) written as f16, as f32 and with a compressed variant per rank. All variants are timed interleaved, frame by frame in round-robin, so a burst of load on the shared machine hits them alike; each frame restores the starting values and applies the next of the {} settings of section 3 (so every frame recomputes its coefficients). Time per frame: median of {} frames after 2 warm-up rounds. Interleaving also means that every frame streams its data from memory (the variants' files together far exceed the last-level cache), as the bound assumes; frames of one file repeated back to back (`relight --repeat`) can run faster when part of the file stays cached. Bytes read is the runtime's own count per frame; the bound is bytes read / bandwidth. Added error: largest relative L2 difference between the compressed and the uncompressed (f16) relight over those settings. The PCA over pixels to rank {} took {:.2} s (computed once, truncated for smaller ranks).\n",
         r.bake_rows.get(1).map_or(0, |b| b.spp),
         r.plan.main_nb,
         r.big_settings,
@@ -2310,7 +2310,7 @@ fn discussion(s: &mut String, r: &Report) {
             e.by_rank.iter().any(|(_, _, t)| t.rel < 0.85 * full)
         });
         let floor_text = if max_floor < 0.002 {
-            "no floor is detectable: within this run's resolution the error is Monte Carlo noise of the bake and the reference".to_string()
+            "that is no detectable floor: within this run's resolution the error is Monte Carlo noise of the bake and the reference".to_string()
         } else if worst_basis >= 0.5 * max_floor {
             format!(
                 "the part that does not fall with spp is of the size of the basis projection error ({} at N_b = {} for {}), i.e. the basis' bias; the rest is Monte Carlo noise of the bake and the reference",
@@ -2326,7 +2326,7 @@ fn discussion(s: &mut String, r: &Report) {
         };
         let _ = writeln!(
             s,
-            "- **Errors, `{}`.** At {top} spp the relit images are {} to {} from the reference, whose own noise is up to {}. The error falls with bake spp at a log-log slope of {mean_slope:.2} ({}), and the noise fit leaves a floor of at most {}: {floor_text}. The basis at N_b = {} differs from N_b = {} by at most {} ({}){}.{}",
+            "- **Errors, `{}`.** At {top} spp the relit images are {} to {} from the reference, whose own noise is up to {}. The error falls with bake spp at a log-log slope of {mean_slope:.2} ({}), and the noise fit leaves a floor of at most {}; {floor_text}. The basis at N_b = {} differs from N_b = {} by at most {} ({}){}.{}",
             sc.name,
             pct(best),
             pct(worst),
