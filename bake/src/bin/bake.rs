@@ -98,7 +98,8 @@ struct BakeArgs {
     /// Also store a low-rank (PCA over pixels) variant with this many components per group.
     #[arg(long)]
     compress_rank: Option<usize>,
-    /// Basis BRDFs per editable glossy family (default: the config's [basis] count, else 6).
+    /// Basis BRDFs per editable glossy family (default: the config's [basis] count or
+    /// error_target, else 6 for blinn-phong and 8 for ggx).
     #[arg(long)]
     basis_count: Option<usize>,
     /// No progress or allocation report on stderr.
