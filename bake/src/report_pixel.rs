@@ -981,7 +981,7 @@ pub fn run(opts: &ReportOptions) -> Result<ReportSummary> {
         main.config.seed,
     );
     bake_rows.push(BakeRow {
-        what: "default config".into(),
+        what: "config's size and spp".into(),
         width: dw,
         height: dh,
         spp: dspp,
@@ -1782,9 +1782,10 @@ fn markdown(r: &Report) -> String {
     let _ = writeln!(s, "## 1. Bake\n");
     let _ = writeln!(
         s,
-        "Scene `{}` ({} reflections, f16 storage). Bake time covers tracing, gathering and compacting (acceleration structure included); the basis build (tabulating the family's lobes on {}, then PCA; the builder's defaults unless `--quick`) is reported separately and excluded from the ratio. The reference render is the true-BRDF path tracer at the same size, spp, reflections and seed (acceleration structure included). Rays counts every ray traced (camera, bounce and shadow rays).\n",
+        "Scene `{}` ({} reflections, f16 storage, N_b = {} for every editable glossy family, whatever the config's `[basis]` says). Bake time covers tracing, gathering and compacting (acceleration structure included); the basis build (tabulating the family's lobes on {}, then PCA; the builder's defaults unless `--quick`) is reported separately and excluded from the ratio. The reference render is the true-BRDF path tracer at the same size, spp, reflections and seed (acceleration structure included). Rays counts every ray traced (camera, bounce and shadow rays).\n",
         r.main_name,
         r.main_reflections,
+        r.plan.main_nb,
         match r.basis_grid {
             Some((g, n)) => format!("a {}x{}x{} grid at {n} parameter values", g.n_theta_i, g.n_theta_o, g.n_phi),
             None => "no grid: no editable glossy material".into(),
