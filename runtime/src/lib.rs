@@ -11,7 +11,6 @@ use std::path::Path;
 use std::time::Instant;
 
 use half::f16;
-use half::slice::HalfFloatSliceExt;
 use prt_formats::basis::BrdfBasis;
 use prt_formats::overrides::{MaterialOverride, OverrideValue};
 use prt_formats::pixel::{group_weights, slot_coefficients, MaterialParams, PixelBakeMeta};
@@ -373,65 +372,210 @@ enum Rows<'a> {
 #[derive(Default)]
 struct Scratch {
     acc: [Vec<f32>; 3],
-    column: Vec<f32>,
+    terms: Vec<Term>,
+}
+
+/// One stored element (or low-rank component) with a nonzero weight: where its column
+/// starts and its weight per output channel.
+#[derive(Clone, Copy)]
+struct Term {
+    offset: usize,
+    w: [f32; 3],
 }
 
 impl GroupFrame<'_> {
+    /// The elements with nonzero weight and their column offsets.
+    fn terms(&self, out: &mut Vec<Term>) -> [f32; 3] {
+        out.clear();
+        let np = self.pixels.len();
+        let len = self.len;
+        let w = &self.w;
+        match &self.data {
+            Rows::F32(_) | Rows::F16(..) => {
+                let scale = if let Rows::F16(_, s) = &self.data {
+                    *s
+                } else {
+                    1.0
+                };
+                for e in 0..len {
+                    let we = [w[e] * scale, w[len + e] * scale, w[2 * len + e] * scale];
+                    if we != [0.0; 3] {
+                        out.push(Term {
+                            offset: e * np,
+                            w: we,
+                        });
+                    }
+                }
+                [0.0; 3]
+            }
+            Rows::Compressed { base, s, .. } => {
+                for (r, sr) in s.iter().enumerate() {
+                    out.push(Term {
+                        offset: r * np,
+                        w: *sr,
+                    });
+                }
+                *base
+            }
+        }
+    }
+
     /// Radiance of the group's pixels `i0..i1` (at most [`BLOCK`]), per channel.
     fn contract_block<'s>(&self, i0: usize, i1: usize, sc: &'s mut Scratch) -> &'s [Vec<f32>; 3] {
         let n = i1 - i0;
-        let np = self.pixels.len();
         for a in sc.acc.iter_mut() {
             a.clear();
             a.resize(n, 0.0);
         }
-        if let Rows::Compressed { base, .. } = &self.data {
-            for (a, b) in sc.acc.iter_mut().zip(base) {
-                a.fill(*b);
-            }
-        }
-        let [a0, a1, a2] = &mut sc.acc;
-        let mut axpy3 = |col: &[f32], w: [f32; 3]| {
-            for (((x, o0), o1), o2) in col
-                .iter()
-                .zip(a0.iter_mut())
-                .zip(a1.iter_mut())
-                .zip(a2.iter_mut())
-            {
-                *o0 += w[0] * x;
-                *o1 += w[1] * x;
-                *o2 += w[2] * x;
-            }
-        };
-        let len = self.len;
-        let w = &self.w;
+        let mut terms = std::mem::take(&mut sc.terms);
+        let init = self.terms(&mut terms);
         match &self.data {
-            Rows::F32(t) => {
-                for e in 0..len {
-                    let we = [w[e], w[len + e], w[2 * len + e]];
-                    if we != [0.0; 3] {
-                        axpy3(&t[e * np + i0..e * np + i1], we);
-                    }
-                }
-            }
-            Rows::F16(t, scale) => {
-                sc.column.resize(n, 0.0);
-                for e in 0..len {
-                    let we = [w[e] * scale, w[len + e] * scale, w[2 * len + e] * scale];
-                    if we != [0.0; 3] {
-                        t[e * np + i0..e * np + i1].convert_to_f32_slice(&mut sc.column);
-                        axpy3(&sc.column, we);
-                    }
-                }
-            }
-            Rows::Compressed { s, z, .. } => {
-                for (r, sr) in s.iter().enumerate() {
-                    axpy3(&z[r * np + i0..r * np + i1], *sr);
-                }
-            }
+            Rows::F32(t) => tiles_f32(t, &terms, i0, init, &mut sc.acc),
+            Rows::F16(t, _) => tiles_f16(t, &terms, i0, init, &mut sc.acc),
+            Rows::Compressed { z, .. } => tiles_f32(z, &terms, i0, init, &mut sc.acc),
         }
+        sc.terms = terms;
         &sc.acc
     }
+}
+
+/// Pixels whose three accumulators stay in registers while every term is added.
+const TILE: usize = 8;
+
+/// `acc[c][k] = init[c] + sum_terms w[c] * col[i0 + k]` for k < acc[0].len(), reading each
+/// stored value once; the per-lane arithmetic (multiply, then add, in term order) is the same
+/// in every instruction set, so results are bit-identical whatever the CPU.
+#[inline(always)]
+fn tiles_impl<T: Copy>(
+    t: &[T],
+    terms: &[Term],
+    i0: usize,
+    init: [f32; 3],
+    acc: &mut [Vec<f32>; 3],
+    load: impl Fn(&[T]) -> [f32; TILE],
+    one: impl Fn(T) -> f32,
+) {
+    let n = acc[0].len();
+    let full = n - n % TILE;
+    let mut k = 0;
+    while k < full {
+        let mut r = [[init[0]; TILE], [init[1]; TILE], [init[2]; TILE]];
+        for term in terms {
+            let start = term.offset + i0 + k;
+            let Some(src) = t.get(start..start + TILE) else {
+                continue;
+            };
+            let x = load(src);
+            for l in 0..TILE {
+                r[0][l] += term.w[0] * x[l];
+                r[1][l] += term.w[1] * x[l];
+                r[2][l] += term.w[2] * x[l];
+            }
+        }
+        for (c, rc) in r.iter().enumerate() {
+            acc[c][k..k + TILE].copy_from_slice(rc);
+        }
+        k += TILE;
+    }
+    for k in full..n {
+        let mut r = init;
+        for term in terms {
+            if let Some(&v) = t.get(term.offset + i0 + k) {
+                let x = one(v);
+                r[0] += term.w[0] * x;
+                r[1] += term.w[1] * x;
+                r[2] += term.w[2] * x;
+            }
+        }
+        for c in 0..3 {
+            acc[c][k] = r[c];
+        }
+    }
+}
+
+#[inline(always)]
+fn load_f32(src: &[f32]) -> [f32; TILE] {
+    let mut x = [0.0; TILE];
+    x.copy_from_slice(&src[..TILE]);
+    x
+}
+
+fn tiles_f32(t: &[f32], terms: &[Term], i0: usize, init: [f32; 3], acc: &mut [Vec<f32>; 3]) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports AVX2 (checked just above).
+        unsafe { tiles_f32_avx2(t, terms, i0, init, acc) };
+        return;
+    }
+    tiles_impl(t, terms, i0, init, acc, load_f32, |v| v);
+}
+
+/// The same kernel compiled for AVX2 (8-wide registers for the tile).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn tiles_f32_avx2(
+    t: &[f32],
+    terms: &[Term],
+    i0: usize,
+    init: [f32; 3],
+    acc: &mut [Vec<f32>; 3],
+) {
+    tiles_impl(t, terms, i0, init, acc, load_f32, |v| v);
+}
+
+fn tiles_f16(t: &[f16], terms: &[Term], i0: usize, init: [f32; 3], acc: &mut [Vec<f32>; 3]) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("f16c") {
+        // SAFETY: the CPU supports AVX2 and F16C (checked just above).
+        unsafe { tiles_f16_avx2(t, terms, i0, init, acc) };
+        return;
+    }
+    tiles_impl(
+        t,
+        terms,
+        i0,
+        init,
+        acc,
+        |src| {
+            let mut x = [0.0; TILE];
+            for (o, v) in x.iter_mut().zip(src) {
+                *o = v.to_f32();
+            }
+            x
+        },
+        f16::to_f32,
+    );
+}
+
+/// The f16 kernel with inline hardware conversion (F16C) and AVX2 registers.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,f16c")]
+unsafe fn tiles_f16_avx2(
+    t: &[f16],
+    terms: &[Term],
+    i0: usize,
+    init: [f32; 3],
+    acc: &mut [Vec<f32>; 3],
+) {
+    use std::arch::x86_64::{__m128i, _mm256_cvtph_ps, _mm256_storeu_ps, _mm_loadu_si128};
+    tiles_impl(
+        t,
+        terms,
+        i0,
+        init,
+        acc,
+        |src| {
+            let mut x = [0.0f32; TILE];
+            // SAFETY: `src` holds at least TILE (8) f16 values = 16 bytes (callers slice it
+            // to TILE); unaligned load and store; F16C is enabled for this function.
+            unsafe {
+                let h = _mm_loadu_si128(src.as_ptr() as *const __m128i);
+                _mm256_storeu_ps(x.as_mut_ptr(), _mm256_cvtph_ps(h));
+            }
+            x
+        },
+        f16::to_f32,
+    );
 }
 
 /// `sum_e W[c][e] x[e]` for the three output channels (`w` is 3 x len, channel-major), used
