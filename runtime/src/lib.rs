@@ -487,8 +487,8 @@ fn tiles_impl<T: Copy>(
                 r[2] += term.w[2] * x;
             }
         }
-        for c in 0..3 {
-            acc[c][k] = r[c];
+        for (a, v) in acc.iter_mut().zip(r) {
+            a[k] = v;
         }
     }
 }
