@@ -214,3 +214,29 @@ pub fn render<M: MaterialModel>(
         background_mean,
     }
 }
+
+/// The ground truth in one call: builds the ray-query structure and lights for `scene` and
+/// renders its camera view `width` x `height` with the true BRDFs, `reflections` reflections,
+/// `spp` samples per pixel and streams keyed by `seed`.
+pub fn render_true(
+    scene: &Scene,
+    reflections: usize,
+    width: u32,
+    height: u32,
+    spp: u32,
+    seed: u64,
+    progress: Option<&indicatif::ProgressBar>,
+) -> Render {
+    let accel = crate::accel::Accel::build(scene);
+    let lights = crate::lights::LightSet::new(scene);
+    let integ = Integrator::new(scene, &accel, &lights, reflections, width, height);
+    let model = TrueBrdfModel::new(scene);
+    render(
+        &integ,
+        &model,
+        &unit_coefficients(scene.materials.len()),
+        spp,
+        seed,
+        progress,
+    )
+}

@@ -24,15 +24,11 @@ use prt_formats::MaterialOverride;
 use prt_runtime::{Relighter, Variant};
 use rayon::prelude::*;
 
-use crate::accel::Accel;
 use crate::basis::{BasisBuilder, BasisConfig};
 use crate::brdf::Family;
 use crate::config::BakeConfig;
-use crate::integrator::Integrator;
-use crate::lights::LightSet;
 use crate::pixel::{self, Compressed, PixelBake, PixelBakeOptions, Precision, SlotLayout};
 use crate::plot::{LinePlot, Series};
-use crate::reference::{render, unit_coefficients, TrueBrdfModel};
 use crate::run::{apply_override, human_bytes, load};
 use crate::scene::Scene;
 
@@ -625,18 +621,7 @@ struct RefRun {
 /// True-BRDF render of `scene` (timed from the acceleration structure build on, as the bake).
 fn reference(scene: &Scene, reflections: u32, w: u32, h: u32, spp: u32, seed: u64) -> RefRun {
     let t = Instant::now();
-    let accel = Accel::build(scene);
-    let lights = LightSet::new(scene);
-    let integ = Integrator::new(scene, &accel, &lights, reflections as usize, w, h);
-    let model = TrueBrdfModel::new(scene);
-    let r = render(
-        &integ,
-        &model,
-        &unit_coefficients(scene.materials.len()),
-        spp,
-        seed,
-        None,
-    );
+    let r = crate::reference::render_true(scene, reflections as usize, w, h, spp, seed, None);
     RefRun {
         pixels: r.pixels.iter().map(|p| p.to_array()).collect(),
         seconds: t.elapsed().as_secs_f64(),

@@ -5,7 +5,6 @@ use prt_bake::accel::Accel;
 use prt_bake::brdf::BrdfParams;
 use prt_bake::integrator::Integrator;
 use prt_bake::lights::LightSet;
-use prt_bake::reference::{render, unit_coefficients, TrueBrdfModel};
 use prt_bake::scene::Scene;
 use prt_bake::testing::{furnace_scene, look_at, SceneBuilder};
 
@@ -16,18 +15,7 @@ fn render_scene(
     h: u32,
     spp: u32,
 ) -> prt_bake::reference::Render {
-    let accel = Accel::build(scene);
-    let lights = LightSet::new(scene);
-    let integ = Integrator::new(scene, &accel, &lights, reflections, w, h);
-    let model = TrueBrdfModel::new(scene);
-    render(
-        &integ,
-        &model,
-        &unit_coefficients(scene.materials.len()),
-        spp,
-        7,
-        None,
-    )
+    prt_bake::reference::render_true(scene, reflections, w, h, spp, 7, None)
 }
 
 /// White furnace: a convex Lambert object under a constant environment of radiance 1 reflects

@@ -182,16 +182,5 @@ pub fn bake_to_file(
     (layout, path)
 }
 
-/// Relative L2 error ||a - b|| / ||b|| over all channels.
-pub fn relative_l2(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
-    let mut num = 0.0f64;
-    let mut den = 0.0f64;
-    for (x, y) in a.iter().zip(b) {
-        for c in 0..3 {
-            let d = (x[c] - y[c]) as f64;
-            num += d * d;
-            den += (y[c] as f64).powi(2);
-        }
-    }
-    (num / den.max(1e-300)).sqrt()
-}
+/// Relative L2 error ||a - b|| / ||b|| over all channels (the report's definition).
+pub use prt_bake::report_pixel::relative_l2;

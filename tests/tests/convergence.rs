@@ -6,11 +6,8 @@
 
 use std::path::PathBuf;
 
-use prt_bake::accel::Accel;
-use prt_bake::integrator::Integrator;
-use prt_bake::lights::LightSet;
 use prt_bake::pixel::{self, PixelBakeOptions, Precision, SlotLayout};
-use prt_bake::reference::{render, unit_coefficients, TrueBrdfModel};
+use prt_bake::reference::render_true;
 use prt_bake::run::{apply_override, build_bases, load};
 use prt_bake::scene::Scene;
 use prt_formats::overrides::parse_override;
@@ -33,22 +30,11 @@ fn reference(
     spp: u32,
     seed: u64,
 ) -> Vec<[f32; 3]> {
-    let accel = Accel::build(scene);
-    let lights = LightSet::new(scene);
-    let integ = Integrator::new(scene, &accel, &lights, reflections, w, h);
-    let model = TrueBrdfModel::new(scene);
-    render(
-        &integ,
-        &model,
-        &unit_coefficients(scene.materials.len()),
-        spp,
-        seed,
-        None,
-    )
-    .pixels
-    .iter()
-    .map(|p| p.to_array())
-    .collect()
+    render_true(scene, reflections, w, h, spp, seed, None)
+        .pixels
+        .iter()
+        .map(|p| p.to_array())
+        .collect()
 }
 
 fn check_scene(

@@ -6,10 +6,7 @@ use std::process::ExitCode;
 
 use anyhow::{bail, Result};
 use clap::Parser;
-use prt_bake::accel::Accel;
-use prt_bake::integrator::Integrator;
-use prt_bake::lights::LightSet;
-use prt_bake::reference::{render, unit_coefficients, TrueBrdfModel};
+use prt_bake::reference::render_true;
 use prt_bake::run::{apply_override, load, progress_bar};
 use prt_formats::MaterialOverride;
 
@@ -67,22 +64,12 @@ fn run(args: Args) -> Result<()> {
     if width == 0 || height == 0 || spp == 0 {
         bail!("--width, --height and --spp must be at least 1");
     }
-    let accel = Accel::build(&scene);
-    let lights = LightSet::new(&scene);
-    let integ = Integrator::new(
+    let bar = (!args.json).then(|| progress_bar(height as u64, "rendering"));
+    let r = render_true(
         &scene,
-        &accel,
-        &lights,
         config.reflections as usize,
         width,
         height,
-    );
-    let model = TrueBrdfModel::new(&scene);
-    let bar = (!args.json).then(|| progress_bar(height as u64, "rendering"));
-    let r = render(
-        &integ,
-        &model,
-        &unit_coefficients(scene.materials.len()),
         spp,
         args.seed.unwrap_or(config.seed),
         bar.as_ref(),
