@@ -330,3 +330,20 @@ pub fn apply_override(scene: &mut Scene, o: &prt_formats::MaterialOverride) -> R
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::parse_size;
+
+    #[test]
+    fn sizes_parse_with_binary_suffixes_and_reject_garbage() {
+        assert_eq!(parse_size("1000"), Ok(1000));
+        assert_eq!(parse_size("4G"), Ok(4 << 30));
+        assert_eq!(parse_size("512m"), Ok(512 << 20));
+        assert_eq!(parse_size(" 1.5K "), Ok(1536));
+        for bad in ["", "G", "abc", "12Q", "-5M", "0", "nanG", "1e999"] {
+            let e = parse_size(bad).expect_err(bad);
+            assert!(e.contains(bad.trim()) || e.contains("size"), "{bad}: {e}");
+        }
+    }
+}
