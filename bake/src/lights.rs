@@ -95,10 +95,6 @@ impl LightSet {
         }
     }
 
-    pub fn has_area_lights(&self) -> bool {
-        self.emissive_pick.is_some()
-    }
-
     pub fn has_environment(&self) -> bool {
         match &self.environment {
             Environment::Constant(c) => c.max_element() > 0.0,

@@ -24,7 +24,7 @@ use crate::brdf::{
     BrdfSample, Family,
 };
 use crate::integrator::{Integrator, MaterialModel, PathSink, Slots, Surface, MAX_SLOTS};
-use crate::lights::{luminance, LightSet};
+use crate::lights::LightSet;
 use crate::sampling::Rng;
 use crate::scene::{Environment, Scene};
 
@@ -874,16 +874,6 @@ pub fn to_f16_scaled(values: &[f32]) -> (Vec<f16>, f32) {
         values.iter().map(|v| f16::from_f32(v * inv)).collect(),
         scale,
     )
-}
-
-/// Luminance of the emission image's mean (for reports).
-pub fn mean_luminance(rgb: &[f32]) -> f32 {
-    let n = rgb.len() / 3;
-    let mut s = Vec3::ZERO;
-    for p in rgb.chunks_exact(3) {
-        s += Vec3::new(p[0], p[1], p[2]);
-    }
-    luminance(s / n.max(1) as f32)
 }
 
 /// `[rows, cols]` row-major to `[cols, rows]` row-major.
