@@ -9,7 +9,7 @@
 //! contracts the slots with coefficients into a colour, the baker accumulates their products
 //! into transfer tensors. Because the sampling never depends on the coefficients, both see the
 //! very same paths from the same random streams: relighting with coefficients c equals the
-//! reference render with the projected BRDFs, to float rounding (DESIGN.md section 2.1).
+//! reference render with the projected BRDFs, to float rounding (docs/pixel.md, "Exactness").
 //!
 //! Random numbers are drawn in a fixed order per vertex whatever happens (2 for the camera
 //! jitter; per vertex 3 for the area light, 2 for the environment, 3 for the continuation), so

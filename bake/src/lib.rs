@@ -1,16 +1,18 @@
 //! PRT baker: scene loading, ray queries, BRDF families and bases, bakers, reference path
-//! tracer. See DESIGN.md and docs/ for the mathematics and conventions.
+//! tracer. docs/design.md says what each module holds; docs/ has the mathematics and
+//! conventions.
 
 pub mod accel;
 pub mod basis;
 pub mod bench;
 pub mod brdf;
 pub mod config;
+pub mod error;
 pub mod integrator;
 pub mod lights;
 pub mod pixel;
-pub mod pixel_compress;
 pub mod plot;
+pub mod progress;
 pub mod reference;
 pub mod report_pixel;
 pub mod run;

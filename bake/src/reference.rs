@@ -9,6 +9,7 @@ use rayon::prelude::*;
 
 use crate::brdf::{BrdfParams, BrdfSample};
 use crate::integrator::{Integrator, MaterialModel, PathSink, Slots, Surface};
+use crate::progress::{Progress, Stage};
 use crate::sampling::Rng;
 use crate::scene::Scene;
 
@@ -151,7 +152,7 @@ pub fn render<M: MaterialModel>(
     coefficients: &[Vec<Vec3>],
     spp: u32,
     seed: u64,
-    progress: Option<&indicatif::ProgressBar>,
+    progress: Option<&dyn Progress>,
 ) -> Render {
     let start = Instant::now();
     let (w, h) = (integrator.width, integrator.height);
@@ -161,6 +162,7 @@ pub fn render<M: MaterialModel>(
         rays: u64,
         sums: Vec<(Vec3, u64)>,
     }
+    let stage = Stage::start(progress, "rendering", h as u64);
     let rows: Vec<RowOut> = (0..h)
         .into_par_iter()
         .map(|y| {
@@ -183,12 +185,11 @@ pub fn render<M: MaterialModel>(
                 }
                 out.pixels.push(acc / spp.max(1) as f32);
             }
-            if let Some(p) = progress {
-                p.inc(1);
-            }
+            stage.advance(1);
             out
         })
         .collect();
+    drop(stage);
     let mut pixels = Vec::with_capacity((w * h) as usize);
     let mut rays = 0;
     let mut sums = vec![(glam::DVec3::ZERO, 0u64); nmat + 1];
@@ -225,7 +226,7 @@ pub fn render_true(
     height: u32,
     spp: u32,
     seed: u64,
-    progress: Option<&indicatif::ProgressBar>,
+    progress: Option<&dyn Progress>,
 ) -> Render {
     let accel = crate::accel::Accel::build(scene);
     let lights = crate::lights::LightSet::new(scene);

@@ -425,7 +425,7 @@ struct SceneCtx {
 
 impl SceneCtx {
     fn new(path: &Path, verbose: bool) -> Result<SceneCtx> {
-        let (config, scene) = load(path)?;
+        let (config, scene) = load(path, &crate::progress::Silent)?;
         if config.mode != crate::config::Mode::Pixel {
             bail!(
                 "{}: the pixel report needs mode = \"pixel\"",
@@ -603,7 +603,7 @@ fn bake_once(ctx: &SceneCtx, bases: &[BrdfBasis], w: u32, h: u32, spp: u32) -> R
     let t = Instant::now();
     let bake = pixel::bake(&ctx.scene, &layout, &opts, None).map_err(anyhow::Error::msg)?;
     let seconds = t.elapsed().as_secs_f64();
-    let rays = bake.meta.stats["rays"].as_u64().unwrap_or(0);
+    let rays = bake.meta.stats.rays;
     Ok(BakeRun {
         bake,
         seconds,
@@ -643,7 +643,7 @@ impl Pca {
             .iter()
             .zip(&bake.meta.groups)
             .map(|(g, gm)| {
-                crate::pixel_compress::pca_rows(
+                crate::pixel::pca_rows(
                     &g.rows,
                     g.pixels.len(),
                     gm.row_len as usize,
@@ -707,10 +707,10 @@ impl Relit {
             push(OverrideValue::Kd(p.kd));
             if m.basis.is_some() {
                 push(OverrideValue::Ks(p.ks));
-                match m.family.as_str() {
-                    "blinn-phong" => push(OverrideValue::Shininess(p.param)),
-                    "ggx" => push(OverrideValue::Alpha(p.param)),
-                    _ => {}
+                match m.family {
+                    Family::BlinnPhong => push(OverrideValue::Shininess(p.param)),
+                    Family::Ggx => push(OverrideValue::Alpha(p.param)),
+                    Family::Diffuse => {}
                 }
             }
         }

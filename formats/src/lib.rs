@@ -2,11 +2,13 @@
 //! the bake-file container, image output, and the material-override syntax of the CLIs.
 //!
 //! * [`container`]: the bake file (safetensors layout, checksums, versioning, zero-copy reads).
+//! * [`family`]: the BRDF families and which parameter fits which family.
 //! * [`image_io`]: EXR/PNG writing (atomic) and EXR reading.
 //! * [`overrides`]: `--set MATERIAL.PARAM=VALUE` parsing.
 
 pub mod basis;
 pub mod container;
+pub mod family;
 pub mod image_io;
 pub mod overrides;
 pub mod pixel;
@@ -15,6 +17,7 @@ pub use container::{
     BakeFile, BakeWriter, Dtype, Element, FormatError, TensorView, FORMAT_NAME, SCHEMA_VERSION,
     TENSOR_ALIGN,
 };
+pub use family::Family;
 pub use image_io::{read_exr_rgb, write_exr, write_image, write_png, ImageIoError};
 pub use overrides::{
     check_material, parse_override, MaterialOverride, OverrideError, OverrideValue, Param,

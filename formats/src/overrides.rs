@@ -17,11 +17,11 @@ use std::fmt;
 use std::str::FromStr;
 
 /// Largest accepted Blinn-Phong exponent.
-pub const SHININESS_MAX: f32 = 1e6;
+pub const SHININESS_MAX: f32 = crate::family::SHININESS_RANGE.1;
 /// Smallest accepted GGX roughness (below it the lobe is a numerical delta).
-pub const ALPHA_MIN: f32 = 1e-4;
+pub const ALPHA_MIN: f32 = crate::family::ALPHA_RANGE.0;
 /// Largest accepted GGX roughness.
-pub const ALPHA_MAX: f32 = 1.0;
+pub const ALPHA_MAX: f32 = crate::family::ALPHA_RANGE.1;
 
 /// A material parameter that can be overridden. New parameters are added here (with their
 /// name in [`Param::name`] and a variant in [`OverrideValue`]); the error messages list the
@@ -249,7 +249,7 @@ pub fn parse_override(s: &str) -> Result<MaterialOverride, OverrideError> {
     let value = match param {
         Param::Kd => OverrideValue::Kd(rgb()?),
         Param::Ks => OverrideValue::Ks(rgb()?),
-        Param::Shininess => OverrideValue::Shininess(scalar(0.0, SHININESS_MAX)?),
+        Param::Shininess => OverrideValue::Shininess(scalar(crate::family::SHININESS_RANGE.0, SHININESS_MAX)?),
         Param::Alpha => OverrideValue::Alpha(scalar(ALPHA_MIN, ALPHA_MAX)?),
     };
     Ok(MaterialOverride {

@@ -2,7 +2,7 @@
 //! runtime reads, and the one place that turns material parameters into slot coefficients.
 //!
 //! A pixel's radiance is a polynomial in the slot coefficients of the materials along its
-//! paths (DESIGN.md 2.1). Every material has a list of *slots*, functions its BRDF is a
+//! paths (docs/pixel.md). Every material has a list of *slots*, functions its BRDF is a
 //! combination of:
 //!
 //! - [`SlotKind::Kd`]: the Lambert lobe 1/pi, coefficient Kd (the diffuse texture multiplies
@@ -22,6 +22,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::basis::BrdfBasis;
+use crate::family::Family;
 
 /// Version of the per-pixel schema (inside the container's own schema version).
 pub const PIXEL_SCHEMA_VERSION: u32 = 1;
@@ -39,8 +40,8 @@ pub enum SlotKind {
 pub struct MaterialMeta {
     pub name: String,
     pub editable: bool,
-    /// "diffuse", "blinn-phong" or "ggx".
-    pub family: String,
+    /// The material's BRDF family (stored by name: "diffuse", "blinn-phong" or "ggx").
+    pub family: Family,
     /// The parameters the scene was baked with (the starting values of editable materials;
     /// the fixed values of the others).
     pub kd: [f32; 3],
@@ -97,14 +98,83 @@ pub struct PixelBakeMeta {
     /// The lights' common colour, divided out of gray tensors and multiplied back in by
     /// [`group_weights`] (white for RGB tensors).
     pub tint: [f32; 3],
-    /// "f32" or "f16": the storage type of the transfer tensors.
-    pub precision: String,
+    /// The storage type of the transfer tensors (stored as "f32" or "f16").
+    pub precision: Precision,
     pub materials: Vec<MaterialMeta>,
     pub bases: Vec<BasisMeta>,
     pub groups: Vec<GroupMeta>,
     pub camera: CameraMeta,
-    /// Free-form figures of the bake (time, rays, allocation report).
-    pub stats: serde_json::Value,
+    /// Figures of the bake that depend only on its inputs (never timings, so the same inputs
+    /// give a byte-identical file).
+    pub stats: BakeStats,
+}
+
+/// Storage type of the transfer tensors.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Precision {
+    /// 32-bit floats: relighting is exact to float rounding.
+    F32,
+    /// 16-bit floats with a per-group scale ([`GroupMeta::scale`]): half the size; rounding is
+    /// amplified by cancellation for sharp lobes (docs/pixel.md).
+    F16,
+}
+
+impl Precision {
+    /// "f32" or "f16", as stored.
+    pub fn name(self) -> &'static str {
+        match self {
+            Precision::F32 => "f32",
+            Precision::F16 => "f16",
+        }
+    }
+}
+
+/// What a per-pixel bake did, as far as it is a function of the inputs alone. Timings are not
+/// stored (they would make two bakes of the same inputs differ); the bake command reports them.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct BakeStats {
+    /// Rays traced (camera, bounce and shadow rays).
+    pub rays: u64,
+    /// Values the dense accumulation held (every slot, before compaction).
+    pub dense_values: u64,
+    /// Values stored after compaction to the active slots.
+    pub stored_values: u64,
+    /// Why each material got the slots it has, and the tensors' channel count.
+    pub allocation: Vec<String>,
+    /// Triangles of the scene.
+    pub triangles: u64,
+}
+
+/// Tensor names of the per-pixel schema (docs/format.md, "Bake schema"): the one place both
+/// the baker and the runtime take them from.
+pub mod names {
+    /// Radiance reaching the camera without a reflection, `[H, W, 3]` f32.
+    pub const EMISSION: &str = "emission";
+    /// Group `g`'s pixel indices (`y * width + x`, ascending), `[pixels]` u32.
+    pub fn pixels(g: usize) -> String {
+        format!("g{g}.pixels")
+    }
+    /// Group `g`'s transfer rows, element-major `[row_len, pixels]`, f32 or f16.
+    pub fn transfer(g: usize) -> String {
+        format!("g{g}.t")
+    }
+    /// Group `g`'s low-rank variant: the mean row, `[row_len]` f32.
+    pub fn mean(g: usize) -> String {
+        format!("g{g}.mean")
+    }
+    /// Group `g`'s low-rank variant: the components, `[rank, row_len]` f32.
+    pub fn components(g: usize) -> String {
+        format!("g{g}.components")
+    }
+    /// Group `g`'s low-rank variant: per-pixel weights, `[rank, pixels]` f32.
+    pub fn weights(g: usize) -> String {
+        format!("g{g}.weights")
+    }
+    /// The tables of basis `b` (`[nodes, num_bases]` f32).
+    pub fn basis_tables(b: usize) -> String {
+        format!("basis.{b}.tables")
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -272,7 +342,7 @@ mod tests {
         MaterialMeta {
             name: "m".into(),
             editable: true,
-            family: "blinn-phong".into(),
+            family: Family::BlinnPhong,
             kd: [0.5; 3],
             ks: [0.2; 3],
             param: 10.0,

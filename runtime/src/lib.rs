@@ -13,7 +13,9 @@ use std::time::Instant;
 use half::f16;
 use prt_formats::basis::BrdfBasis;
 use prt_formats::overrides::{MaterialOverride, OverrideValue};
-use prt_formats::pixel::{group_weights, slot_coefficients, MaterialParams, PixelBakeMeta};
+use prt_formats::pixel::{
+    group_weights, names, slot_coefficients, MaterialParams, PixelBakeMeta, Precision,
+};
 use prt_formats::{BakeFile, Dtype, FormatError};
 use rayon::prelude::*;
 
@@ -95,7 +97,7 @@ impl Relighter {
         }
         let nslots: usize = meta.materials.iter().map(|m| m.slots.len()).sum();
         let (w, h) = (meta.width as usize, meta.height as usize);
-        file.tensor("emission")?.require_shape(&[h, w, 3])?;
+        file.tensor(names::EMISSION)?.require_shape(&[h, w, 3])?;
         for (g, gm) in meta.groups.iter().enumerate() {
             let Some(m) = meta.materials.get(gm.material as usize) else {
                 return Err(schema(format!(
@@ -127,22 +129,33 @@ impl Relighter {
                 )));
             }
             let p = gm.pixels as usize;
-            let pix = file.tensor(&format!("g{g}.pixels"))?;
+            let pix = file.tensor(&names::pixels(g))?;
             pix.require_shape(&[p])?;
             if pix.as_u32()?.iter().any(|&i| i as usize >= w * h) {
                 return Err(schema(format!(
                     "group {g} has a pixel index outside the image"
                 )));
             }
-            file.tensor(&format!("g{g}.t"))?
-                .require_shape(&[expect, p])?;
+            let t = file.tensor(&names::transfer(g))?;
+            t.require_shape(&[expect, p])?;
+            let stored = match meta.precision {
+                Precision::F32 => Dtype::F32,
+                Precision::F16 => Dtype::F16,
+            };
+            if t.dtype() != stored {
+                return Err(schema(format!(
+                    "group {g}: transfer tensor is {} but the metadata says {}",
+                    t.dtype(),
+                    meta.precision.name()
+                )));
+            }
             if let Some(k) = gm.compressed_rank {
                 let k = k as usize;
-                file.tensor(&format!("g{g}.mean"))?
+                file.tensor(&names::mean(g))?
                     .require_shape(&[expect])?;
-                file.tensor(&format!("g{g}.components"))?
+                file.tensor(&names::components(g))?
                     .require_shape(&[k, expect])?;
-                file.tensor(&format!("g{g}.weights"))?
+                file.tensor(&names::weights(g))?
                     .require_shape(&[k, p])?;
             }
         }
@@ -211,21 +224,27 @@ impl Relighter {
                     .join(", "),
             });
         }
-        let wrong = |param: &str| RuntimeError::WrongParam {
-            name: m.name.clone(),
-            family: m.family.clone(),
-            param: param.to_string(),
-        };
+        let param = o.value.param();
+        if !m.family.has_param(param) {
+            return Err(RuntimeError::WrongParam {
+                name: m.name.clone(),
+                family: m.family.to_string(),
+                param: param.to_string(),
+            });
+        }
         let p = &mut self.params[i];
         match o.value {
             OverrideValue::Kd(c) => p.kd = c,
-            OverrideValue::Ks(c) if m.basis.is_some() => p.ks = c,
-            OverrideValue::Shininess(s) if m.family == "blinn-phong" => p.param = s,
-            OverrideValue::Alpha(a) if m.family == "ggx" => p.param = a,
-            OverrideValue::Ks(_) => return Err(wrong("ks")),
-            OverrideValue::Shininess(_) => return Err(wrong("shininess")),
-            OverrideValue::Alpha(_) => return Err(wrong("alpha")),
-            ref other => return Err(wrong(&other.param().to_string())),
+            OverrideValue::Ks(c) => p.ks = c,
+            OverrideValue::Shininess(v) | OverrideValue::Alpha(v) => p.param = v,
+            // A parameter the syntax knows but this runtime does not.
+            ref other => {
+                return Err(RuntimeError::WrongParam {
+                    name: m.name.clone(),
+                    family: m.family.to_string(),
+                    param: other.param().to_string(),
+                })
+            }
         }
         Ok(())
     }
@@ -262,18 +281,18 @@ impl Relighter {
         let (coeff, _) = self.coefficients();
         let reflections = self.meta.reflections as usize;
         let channels = self.meta.channels as usize;
-        let emission = self.file.tensor("emission")?.as_f32()?;
+        let emission = self.file.tensor(names::EMISSION)?.as_f32()?;
         let mut bytes_read = (emission.len() * 4) as u64;
         let mut groups = Vec::with_capacity(self.meta.groups.len());
         for (g, gm) in self.meta.groups.iter().enumerate() {
             let m = &self.meta.materials[gm.material as usize];
             let w = group_weights(gm, m, &coeff, reflections, channels, self.meta.tint);
             let len = gm.row_len as usize;
-            let pixels = self.file.tensor(&format!("g{g}.pixels"))?.as_u32()?;
+            let pixels = self.file.tensor(&names::pixels(g))?.as_u32()?;
             bytes_read += (pixels.len() * 4) as u64;
             let data = match variant {
                 Variant::Full => {
-                    let t = self.file.tensor(&format!("g{g}.t"))?;
+                    let t = self.file.tensor(&names::transfer(g))?;
                     bytes_read += t.bytes().len() as u64;
                     match t.dtype() {
                         Dtype::F16 => Rows::F16(t.as_f16()?, gm.scale),
@@ -282,9 +301,9 @@ impl Relighter {
                 }
                 Variant::Compressed => {
                     let k = gm.compressed_rank.unwrap_or(0) as usize;
-                    let mean = self.file.tensor(&format!("g{g}.mean"))?.as_f32()?;
-                    let comps = self.file.tensor(&format!("g{g}.components"))?.as_f32()?;
-                    let z = self.file.tensor(&format!("g{g}.weights"))?.as_f32()?;
+                    let mean = self.file.tensor(&names::mean(g))?.as_f32()?;
+                    let comps = self.file.tensor(&names::components(g))?.as_f32()?;
+                    let z = self.file.tensor(&names::weights(g))?.as_f32()?;
                     bytes_read += ((mean.len() + comps.len() + z.len()) * 4) as u64;
                     // Contract the mean and the K components once per frame.
                     let base = dot3(mean, &w, len);

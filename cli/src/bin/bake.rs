@@ -9,10 +9,10 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{bail, Result};
-use clap::{Args, Parser, Subcommand};
-use prt_bake::config::Mode;
+use clap::{Args, Parser, Subcommand, ValueEnum};
 use prt_bake::pixel::Precision;
-use prt_bake::run::{human_bytes, load, parse_size, run_pixel, PixelRunSettings};
+use prt_bake::run::{human_bytes, load, run_pixel, PixelRunSettings};
+use prt_cli::{parse_size, Stderr};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -74,6 +74,13 @@ enum BenchCommand {
     },
 }
 
+/// `--precision` (the library's `Precision` has no clap derive: the libraries stay CLI-free).
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum PrecisionArg {
+    F32,
+    F16,
+}
+
 #[derive(Args, Debug)]
 struct BakeArgs {
     /// The bake config (TOML) to bake.
@@ -90,8 +97,8 @@ struct BakeArgs {
     out: Option<PathBuf>,
     /// Storage of the transfer tensors: f32 (exact relighting) or f16 (half the size; its
     /// rounding is amplified by cancellation for sharp lobes, see docs/pixel.md).
-    #[arg(long, value_parser = ["f16", "f32"], default_value = "f32")]
-    precision: String,
+    #[arg(long, value_enum, default_value_t = PrecisionArg::F32)]
+    precision: PrecisionArg,
     /// Refuse to bake when the estimated memory exceeds this (e.g. 4G).
     #[arg(long, value_parser = parse_size)]
     max_memory: Option<u64>,
@@ -144,29 +151,22 @@ fn run(cli: Cli) -> Result<()> {
 }
 
 fn bake(config_path: &std::path::Path, a: &BakeArgs) -> Result<()> {
-    let (config, scene) = load(config_path)?;
-    if config.mode == Mode::Vertex {
-        bail!(
-            "{}: mode = \"vertex\" (per-vertex transfer tensors) is not implemented yet; use mode = \"pixel\"",
-            config.config_path.display()
-        );
-    }
+    let progress = Stderr::new(a.quiet || a.json);
+    let (config, scene) = load(config_path, &progress)?;
     let settings = PixelRunSettings {
         spp: a.spp,
         width: a.width,
         height: a.height,
         output: a.out.clone(),
-        precision: Some(if a.precision == "f16" {
-            Precision::F16
-        } else {
-            Precision::F32
+        precision: Some(match a.precision {
+            PrecisionArg::F32 => Precision::F32,
+            PrecisionArg::F16 => Precision::F16,
         }),
         max_memory: a.max_memory,
         compress_rank: a.compress_rank,
         basis_count: a.basis_count,
-        quiet: a.quiet || a.json,
     };
-    let summary = run_pixel(&config, &scene, &settings)?;
+    let summary = run_pixel(&config, &scene, &settings, &progress)?;
     if a.json {
         println!("{}", serde_json::to_string(&summary)?);
     } else {
@@ -174,7 +174,7 @@ fn bake(config_path: &std::path::Path, a: &BakeArgs) -> Result<()> {
             "baked {} in {:.2} s ({:.2} Mrays/s): {}",
             summary.output.display(),
             summary.seconds,
-            summary.stats["rays_per_second"].as_f64().unwrap_or(0.0) / 1e6,
+            summary.timings.rays_per_second / 1e6,
             human_bytes(summary.file_bytes)
         );
     }
@@ -183,7 +183,7 @@ fn bake(config_path: &std::path::Path, a: &BakeArgs) -> Result<()> {
 
 fn bench_rays(rays: usize, config: Option<PathBuf>, json: bool) -> Result<()> {
     let scene = match config {
-        Some(c) => load(&c)?.1,
+        Some(c) => load(&c, &Stderr::new(json))?.1,
         None => prt_bake::bench::hundred_k_scene(),
     };
     let figures = prt_bake::bench::ray_throughput(&scene, rays.max(1));

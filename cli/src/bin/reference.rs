@@ -7,7 +7,8 @@ use std::process::ExitCode;
 use anyhow::{bail, Result};
 use clap::Parser;
 use prt_bake::reference::render_true;
-use prt_bake::run::{apply_override, load, progress_bar};
+use prt_bake::run::{apply_override, load};
+use prt_cli::Stderr;
 use prt_formats::MaterialOverride;
 
 #[derive(Parser, Debug)]
@@ -54,7 +55,8 @@ fn main() -> ExitCode {
 }
 
 fn run(args: Args) -> Result<()> {
-    let (config, mut scene) = load(&args.config)?;
+    let progress = Stderr::new(args.json);
+    let (config, mut scene) = load(&args.config, &progress)?;
     for o in &args.set {
         apply_override(&mut scene, o)?;
     }
@@ -64,7 +66,6 @@ fn run(args: Args) -> Result<()> {
     if width == 0 || height == 0 || spp == 0 {
         bail!("--width, --height and --spp must be at least 1");
     }
-    let bar = (!args.json).then(|| progress_bar(height as u64, "rendering"));
     let r = render_true(
         &scene,
         config.reflections as usize,
@@ -72,11 +73,8 @@ fn run(args: Args) -> Result<()> {
         height,
         spp,
         args.seed.unwrap_or(config.seed),
-        bar.as_ref(),
+        Some(&progress),
     );
-    if let Some(b) = bar {
-        b.finish_and_clear();
-    }
     let out = args.out.unwrap_or_else(|| {
         let stem = config
             .config_path

@@ -7,7 +7,19 @@ use faer::Mat;
 use rayon::prelude::*;
 
 use crate::basis::linalg::{fix_sign, matmul_tn, sym_eig_desc};
-use crate::pixel::Compressed;
+
+/// A group's low-rank variant: row_p ~ mean + sum_r weights[p, r] components[r].
+pub struct Compressed {
+    /// The mean row, `[row_len]`.
+    pub mean: Vec<f32>,
+    /// `[rank, row_len]`.
+    pub components: Vec<f32>,
+    /// `[pixels, rank]`.
+    pub weights: Vec<f32>,
+    /// Number of components kept (at most the requested rank; fewer when the data has lower
+    /// rank).
+    pub rank: usize,
+}
 
 /// Rows per covariance chunk; chunks are reduced in a fixed order, so the result does not
 /// depend on the thread count.

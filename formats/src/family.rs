@@ -1,0 +1,146 @@
+//! The BRDF families, as a name both the baker and the runtime agree on, and the rule of which
+//! material parameter fits which family (docs/brdf.md states the formulas).
+//!
+//! The formulas themselves (evaluation, sampling) live in the baker (`prt_bake::brdf`); the
+//! runtime never evaluates a family's formula, it reads the baked basis tables. What both must
+//! agree on bit for bit is here: the family's name in the bake file, the parameter it takes and
+//! that parameter's accepted range.
+//!
+//! Adding a family: a variant here (name, parameter, range), its formulas in `prt_bake::brdf`,
+//! and its glTF mapping in the scene loader (docs/design.md, "Where things go").
+
+use std::fmt;
+use std::str::FromStr;
+
+use serde::{Deserialize, Serialize};
+
+use crate::overrides::Param;
+
+/// A BRDF family. Every family is `Kd / pi` plus `Ks` times the family's specular lobe.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Family {
+    /// Lambert only: `f = Kd / pi`.
+    Diffuse,
+    /// `Kd / pi + Ks (s + 2) / (2 pi) cos^s(theta_h)` (normalised Blinn-Phong, thesis eq. 4-15).
+    BlinnPhong,
+    /// `Kd / pi + Ks D(h) G1(wi) G1(wo) / (4 cos_i cos_o)`: Trowbridge-Reitz D, separable
+    /// Smith G1, Fresnel = 1.
+    Ggx,
+}
+
+/// Accepted range of the Blinn-Phong exponent s (the thesis samples [1, 200]; larger values
+/// are accepted and clamped to a basis' sampled range where a basis is used).
+pub const SHININESS_RANGE: (f32, f32) = (0.0, 1.0e6);
+
+/// Accepted range of the GGX roughness alpha (below 1e-4 the lobe is a numerical delta).
+pub const ALPHA_RANGE: (f32, f32) = (1.0e-4, 1.0);
+
+impl Family {
+    /// Every family, in a fixed order.
+    pub const ALL: [Family; 3] = [Family::Diffuse, Family::BlinnPhong, Family::Ggx];
+
+    /// The name in configs, bake files and messages.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Family::Diffuse => "diffuse",
+            Family::BlinnPhong => "blinn-phong",
+            Family::Ggx => "ggx",
+        }
+    }
+
+    /// Parses a family name; a few common aliases are accepted (`lambert`, `phong`,
+    /// `blinnphong`).
+    pub fn parse(s: &str) -> Option<Family> {
+        match s {
+            "diffuse" | "lambert" => Some(Family::Diffuse),
+            "blinn-phong" | "blinnphong" | "phong" => Some(Family::BlinnPhong),
+            "ggx" => Some(Family::Ggx),
+            _ => None,
+        }
+    }
+
+    /// The parameter that shapes the specular lobe (`shininess` or `alpha`), if the family has
+    /// a lobe.
+    pub const fn lobe_param(self) -> Option<Param> {
+        match self {
+            Family::Diffuse => None,
+            Family::BlinnPhong => Some(Param::Shininess),
+            Family::Ggx => Some(Param::Alpha),
+        }
+    }
+
+    /// The accepted range of the lobe parameter, if the family has a lobe.
+    pub const fn lobe_param_range(self) -> Option<(f32, f32)> {
+        match self {
+            Family::Diffuse => None,
+            Family::BlinnPhong => Some(SHININESS_RANGE),
+            Family::Ggx => Some(ALPHA_RANGE),
+        }
+    }
+
+    /// Whether a material of this family has parameter `p`: every family has `kd`; families
+    /// with a lobe have `ks` and their own lobe parameter. The one rule the baker's overrides,
+    /// the config checker and the runtime all use.
+    pub fn has_param(self, p: Param) -> bool {
+        match p {
+            Param::Kd => true,
+            Param::Ks => self != Family::Diffuse,
+            Param::Shininess | Param::Alpha => self.lobe_param() == Some(p),
+        }
+    }
+
+    /// The names of the parameters this family has, for messages.
+    pub fn param_names(self) -> Vec<&'static str> {
+        Param::ALL
+            .iter()
+            .filter(|p| self.has_param(**p))
+            .map(|p| p.name())
+            .collect()
+    }
+}
+
+impl fmt::Display for Family {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Error of [`Family::from_str`]: the unknown name, with the valid ones in the message.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("unknown BRDF family '{0}' (expected diffuse, blinn-phong or ggx)")]
+pub struct UnknownFamily(pub String);
+
+impl FromStr for Family {
+    type Err = UnknownFamily;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Family::parse(s).ok_or_else(|| UnknownFamily(s.to_string()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip_through_parse_and_serde() {
+        for f in Family::ALL {
+            assert_eq!(Family::parse(f.name()), Some(f));
+            let json = serde_json::to_string(&f).unwrap();
+            assert_eq!(json, format!("\"{}\"", f.name()));
+            assert_eq!(serde_json::from_str::<Family>(&json).unwrap(), f);
+        }
+        assert!("velvet".parse::<Family>().is_err());
+    }
+
+    #[test]
+    fn each_lobe_parameter_fits_exactly_one_family() {
+        assert!(Family::ALL.iter().all(|f| f.has_param(Param::Kd)));
+        assert!(!Family::Diffuse.has_param(Param::Ks));
+        assert!(Family::BlinnPhong.has_param(Param::Shininess));
+        assert!(!Family::BlinnPhong.has_param(Param::Alpha));
+        assert!(Family::Ggx.has_param(Param::Alpha));
+        assert!(!Family::Ggx.has_param(Param::Shininess));
+        assert_eq!(Family::Ggx.param_names(), ["kd", "ks", "alpha"]);
+    }
+}
