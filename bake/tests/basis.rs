@@ -8,7 +8,7 @@ use prt_bake::basis::grid::{cosine_weights, lobe_f64, tabulate, tabulate_one};
 use prt_bake::basis::pca::{dot_w, PcaBuilder, PcaOptions};
 use prt_bake::basis::report::{continuous_error, family_report, select_count};
 use prt_bake::basis::{build_basis, tucker, BasisConfig, FamilySpec};
-use prt_bake::brdf::Family;
+use prt_bake::brdf::{Family, Lobe};
 use prt_formats::basis::{AngularGrid, BrdfBasis, GridKind, GridSpec};
 
 /// A small half/difference grid (768 nodes) keeps the tests fast.

@@ -171,10 +171,9 @@ fn a_bake_past_max_memory_is_refused_before_it_starts() {
         output: Some(out.clone()),
         max_memory: Some(10_000),
         basis_count: Some(2),
-        quiet: true,
         ..Default::default()
     };
-    let err = run_pixel(&config, &scene, &settings)
+    let err = run_pixel(&config, &scene, &settings, &prt_bake::progress::Silent)
         .expect_err("must refuse")
         .to_string();
     assert!(err.contains("--max-memory"), "{err}");

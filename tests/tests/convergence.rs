@@ -8,7 +8,8 @@ use std::path::PathBuf;
 
 use prt_bake::pixel::{self, PixelBakeOptions, Precision, SlotLayout};
 use prt_bake::reference::render_true;
-use prt_bake::run::{apply_override, build_bases, load};
+use prt_bake::progress::Silent;
+use prt_bake::run::{apply_override, build_bases, load, BasisCount};
 use prt_bake::scene::Scene;
 use prt_formats::overrides::parse_override;
 use prt_runtime::{Relighter, Variant};
@@ -45,9 +46,9 @@ fn check_scene(
     ref_spp: u32,
     slack: f64,
 ) {
-    let (config, scene) = load(&scene_config(name)).expect("load scene");
+    let (config, scene) = load(&scene_config(name), &Silent).expect("load scene");
     let reflections = config.reflections as usize;
-    let bases = build_bases(&scene, 6, false).expect("bases");
+    let bases = build_bases(&scene, BasisCount::Fixed(6), &Silent).expect("bases");
     let layout = SlotLayout::new(&scene, &bases).expect("layout");
     let opts = PixelBakeOptions {
         width: size.0,
