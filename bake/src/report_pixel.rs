@@ -643,12 +643,7 @@ impl Pca {
             .iter()
             .zip(&bake.meta.groups)
             .map(|(g, gm)| {
-                crate::pixel::pca_rows(
-                    &g.rows,
-                    g.pixels.len(),
-                    gm.row_len as usize,
-                    max_rank,
-                )
+                crate::pixel::pca_rows(&g.rows, g.pixels.len(), gm.row_len as usize, max_rank)
             })
             .collect();
         Pca {

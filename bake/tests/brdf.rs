@@ -3,31 +3,20 @@
 
 use glam::{Vec2, Vec3};
 use prt_bake::brdf::{BrdfParams, Family};
+use prt_bake::sampling::Rng;
 use std::f64::consts::PI;
 
-/// Small deterministic generator (splitmix64).
-struct Rng(u64);
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn f32(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn vec2(&mut self) -> Vec2 {
-        Vec2::new(self.f32(), self.f32())
-    }
-    /// Uniform direction on the upper hemisphere.
-    fn hemi(&mut self) -> Vec3 {
-        let z = self.f32().max(1e-4);
-        let r = (1.0 - z * z).max(0.0).sqrt();
-        let p = 2.0 * std::f32::consts::PI * self.f32();
-        Vec3::new(r * p.cos(), r * p.sin(), z)
-    }
+/// The project's one random generator (PCG), one stream per test.
+fn rng(seed: u64) -> Rng {
+    Rng::for_sample(seed, 0, 0)
+}
+
+/// Uniform direction on the upper hemisphere.
+fn hemi(rng: &mut Rng) -> Vec3 {
+    let z = rng.next_f32().max(1e-4);
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let p = 2.0 * std::f32::consts::PI * rng.next_f32();
+    Vec3::new(r * p.cos(), r * p.sin(), z)
 }
 
 fn dir(theta_deg: f32, phi_deg: f32) -> Vec3 {
@@ -57,10 +46,10 @@ fn all_params() -> Vec<BrdfParams> {
 
 #[test]
 fn non_negative_and_finite() {
-    let mut rng = Rng(1);
+    let mut rng = rng(1);
     for b in all_params() {
         for _ in 0..20_000 {
-            let (wo, wi) = (rng.hemi(), rng.hemi());
+            let (wo, wi) = (hemi(&mut rng), hemi(&mut rng));
             let f = b.eval(wo, wi);
             assert!(
                 f.is_finite() && f.min_element() >= 0.0,
@@ -87,10 +76,10 @@ fn non_negative_and_finite() {
 
 #[test]
 fn reciprocity() {
-    let mut rng = Rng(2);
+    let mut rng = rng(2);
     for b in all_params() {
         for _ in 0..20_000 {
-            let (wo, wi) = (rng.hemi(), rng.hemi());
+            let (wo, wi) = (hemi(&mut rng), hemi(&mut rng));
             let (f1, f2) = (b.eval(wo, wi), b.eval(wi, wo));
             let d = (f1 - f2).abs().max_element();
             assert!(
@@ -140,8 +129,8 @@ fn bp_max_albedo(s: f64) -> f64 {
 fn mc_albedo(b: &BrdfParams, wo: Vec3, n: usize, rng: &mut Rng) -> f64 {
     let mut sum = 0.0;
     for _ in 0..n {
-        let u = rng.vec2();
-        let ul = rng.f32();
+        let u = rng.next_vec2();
+        let ul = rng.next_f32();
         if let Some(smp) = b.sample(wo, u, ul) {
             let f = b.eval(wo, smp.wi).x as f64;
             sum += f * smp.wi.z as f64 / smp.pdf as f64;
@@ -152,7 +141,7 @@ fn mc_albedo(b: &BrdfParams, wo: Vec3, n: usize, rng: &mut Rng) -> f64 {
 
 #[test]
 fn albedo_diffuse_is_kd() {
-    let mut rng = Rng(3);
+    let mut rng = rng(3);
     let b = BrdfParams::diffuse(Vec3::splat(0.8));
     for t in [0.0, 45.0, 85.0] {
         let a = mc_albedo(&b, dir(t, 10.0), 20_000, &mut rng);
@@ -163,7 +152,7 @@ fn albedo_diffuse_is_kd() {
 #[test]
 fn albedo_ggx_at_most_one() {
     // F = 1 with separable Smith: a(wo) <= 1 for every alpha and direction.
-    let mut rng = Rng(4);
+    let mut rng = rng(4);
     for alpha in [0.02, 0.1, 0.3, 0.6, 1.0] {
         for t in [0.0, 30.0, 60.0, 80.0, 88.0] {
             let b = spec(Family::Ggx, 0.0, 1.0, alpha);
@@ -181,7 +170,7 @@ fn albedo_blinn_phong_bound() {
     assert!((bp_albedo(0.0, 0.3) - 1.0).abs() < 1e-3);
     let a200 = bp_max_albedo(200.0);
     assert!(a200 > 3.5 && a200 < 4.0, "{a200}");
-    let mut rng = Rng(5);
+    let mut rng = rng(5);
     for s in [1.0f32, 10.0, 100.0, 1000.0] {
         let m = bp_max_albedo(s as f64);
         // normal incidence, closed form: 4 (s+2) [2/(s+4) (1 - c^(s+4)) - 1/(s+2) (1 - c^(s+2))]
@@ -230,7 +219,7 @@ fn pdf_integral(b: &BrdfParams, wo: Vec3, nz: usize, np: usize) -> f64 {
 
 #[test]
 fn pdf_normalization() {
-    let mut rng = Rng(6);
+    let mut rng = rng(6);
     for b in [
         BrdfParams::diffuse(Vec3::ONE),
         spec(Family::BlinnPhong, 0.5, 0.5, 1.0),
@@ -245,7 +234,7 @@ fn pdf_normalization() {
             // mass the sampler sends below the horizon (it returns None for those)
             let n = 200_000;
             let lost = (0..n)
-                .filter(|_| b.sample(wo, rng.vec2(), rng.f32()).is_none())
+                .filter(|_| b.sample(wo, rng.next_vec2(), rng.next_f32()).is_none())
                 .count() as f64
                 / n as f64;
             assert!(
@@ -261,7 +250,7 @@ fn pdf_normalization() {
 
 #[test]
 fn sampled_histogram_matches_pdf() {
-    let mut rng = Rng(7);
+    let mut rng = rng(7);
     let (nz, np) = (8usize, 16usize);
     for b in [
         spec(Family::BlinnPhong, 0.3, 0.7, 20.0),
@@ -272,7 +261,7 @@ fn sampled_histogram_matches_pdf() {
         let n = 200_000usize;
         let mut hist = vec![0.0f64; nz * np];
         for _ in 0..n {
-            if let Some(s) = b.sample(wo, rng.vec2(), rng.f32()) {
+            if let Some(s) = b.sample(wo, rng.next_vec2(), rng.next_f32()) {
                 let z = s.wi.z.clamp(0.0, 0.999_999) as f64;
                 let p = (s.wi.y as f64).atan2(s.wi.x as f64).rem_euclid(2.0 * PI);
                 let (a, c) = (

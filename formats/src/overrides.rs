@@ -249,7 +249,9 @@ pub fn parse_override(s: &str) -> Result<MaterialOverride, OverrideError> {
     let value = match param {
         Param::Kd => OverrideValue::Kd(rgb()?),
         Param::Ks => OverrideValue::Ks(rgb()?),
-        Param::Shininess => OverrideValue::Shininess(scalar(crate::family::SHININESS_RANGE.0, SHININESS_MAX)?),
+        Param::Shininess => {
+            OverrideValue::Shininess(scalar(crate::family::SHININESS_RANGE.0, SHININESS_MAX)?)
+        }
         Param::Alpha => OverrideValue::Alpha(scalar(ALPHA_MIN, ALPHA_MAX)?),
     };
     Ok(MaterialOverride {

@@ -151,12 +151,10 @@ impl Relighter {
             }
             if let Some(k) = gm.compressed_rank {
                 let k = k as usize;
-                file.tensor(&names::mean(g))?
-                    .require_shape(&[expect])?;
+                file.tensor(&names::mean(g))?.require_shape(&[expect])?;
                 file.tensor(&names::components(g))?
                     .require_shape(&[k, expect])?;
-                file.tensor(&names::weights(g))?
-                    .require_shape(&[k, p])?;
+                file.tensor(&names::weights(g))?.require_shape(&[k, p])?;
             }
         }
         let params = meta.materials.iter().map(|m| m.params()).collect();

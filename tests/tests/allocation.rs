@@ -1,4 +1,4 @@
-//! "Model only what a scene needs" (DESIGN.md 2.5, issue 4 item 2): slots per material by
+//! "Model only what a scene needs" (docs/pixel.md section 2, issue 4 item 2): slots per material by
 //! need, gray tensors when colour can live in coefficients, no storage for slots that never
 //! carry light, and a clear refusal past the memory limit.
 

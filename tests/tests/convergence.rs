@@ -7,8 +7,8 @@
 use std::path::PathBuf;
 
 use prt_bake::pixel::{self, PixelBakeOptions, Precision, SlotLayout};
-use prt_bake::reference::render_true;
 use prt_bake::progress::Silent;
+use prt_bake::reference::render_true;
 use prt_bake::run::{apply_override, build_bases, load, BasisCount};
 use prt_bake::scene::Scene;
 use prt_formats::overrides::parse_override;

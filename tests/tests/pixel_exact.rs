@@ -1,6 +1,6 @@
 //! Exactness: relighting a bake with coefficients c equals the reference render with the
-//! projected BRDFs sum_i c_i rho~_i, traced with the same random streams (DESIGN.md 2.1,
-//! issue 4 test (a)). Any slot-bookkeeping bug in the baker, the file or the runtime shows here.
+//! projected BRDFs sum_i c_i rho~_i, traced with the same random streams (docs/pixel.md,
+//! "Exactness"). Any slot-bookkeeping bug in the baker, the file or the runtime shows here.
 
 use glam::Vec3;
 use prt_bake::accel::Accel;

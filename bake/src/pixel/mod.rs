@@ -47,7 +47,9 @@ use sink::TensorSink;
 #[derive(Debug, thiserror::Error)]
 pub enum PixelError {
     /// An editable glossy material's family has no basis among those given.
-    #[error("material '{material}' is editable with family {family} but no basis for it was built")]
+    #[error(
+        "material '{material}' is editable with family {family} but no basis for it was built"
+    )]
     MissingBasis {
         /// The material's name.
         material: String,
