@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{BasisError, HALF_DIFF_COS_OFFSET};
 
-/// What the three axes of an [`AngularGrid`] are (see the module docs).
+/// What the three axes of an [`AngularGrid`] are (see the [`basis`](super) module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum GridKind {
@@ -36,9 +36,9 @@ impl GridKind {
     }
 }
 
-/// Node counts of the isotropic three-axis grid (see the module docs). The field names are
-/// those of the [`GridKind::Angles`] axes; for [`GridKind::HalfDiff`] they count the nodes
-/// along `theta_h`, `theta_d` and `phi_d`.
+/// Node counts of the isotropic three-axis grid (see the [`basis`](super) module docs). The
+/// field names are those of the [`GridKind::Angles`] axes; for [`GridKind::HalfDiff`] they
+/// count the nodes along `theta_h`, `theta_d` and `phi_d`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct AngularGrid {
     /// Nodes along the first axis (`theta_i`, or `theta_h`); at least 2.

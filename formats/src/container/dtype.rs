@@ -70,9 +70,10 @@ mod sealed {
 
 /// Rust types that can be viewed zero-copy as tensor elements.
 ///
-/// Sealed: the zero-copy casts in this module are sound only because every implementor is a
-/// plain number type (or `repr(transparent)` over one) with no padding and no invalid bit
-/// patterns, whose size equals `DTYPE.size()`.
+/// Sealed: the zero-copy casts of the container (`element_bytes` here and
+/// [`TensorView::as_slice`](super::TensorView::as_slice)) are sound only because every
+/// implementor is a plain number type (or `repr(transparent)` over one) with no padding and no
+/// invalid bit patterns, whose size equals `DTYPE.size()`.
 pub trait Element: sealed::Sealed + Copy + 'static {
     /// The dtype whose elements this type reads and writes.
     const DTYPE: Dtype;

@@ -82,10 +82,10 @@ pub mod keys {
 }
 
 /// Key of the safetensors metadata map inside the JSON header.
-pub(crate) const ST_METADATA: &str = "__metadata__";
+const ST_METADATA: &str = "__metadata__";
 /// Prefix of padding tensors. Every name starting with `__` is reserved for the container.
-pub(crate) const PAD_PREFIX: &str = "__pad";
-pub(crate) const RESERVED_PREFIX: &str = "__";
+const PAD_PREFIX: &str = "__pad";
+const RESERVED_PREFIX: &str = "__";
 
 /// Result of the container's fallible operations.
 type Result<T, E = FormatError> = std::result::Result<T, E>;

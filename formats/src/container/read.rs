@@ -137,12 +137,14 @@ impl BakeFile {
         &self.path
     }
 
-    /// The schema version stored in the file (always [`SCHEMA_VERSION`](super::SCHEMA_VERSION) for an open file).
+    /// The schema version stored in the file (always
+    /// [`SCHEMA_VERSION`](super::SCHEMA_VERSION) for an open file).
     pub fn schema_version(&self) -> u32 {
         self.schema_version
     }
 
-    /// The bake schema's metadata, as given to [`BakeWriter::set_metadata`](super::BakeWriter::set_metadata).
+    /// The bake schema's metadata, as given to
+    /// [`BakeWriter::set_metadata`](super::BakeWriter::set_metadata).
     pub fn metadata(&self) -> &Value {
         &self.metadata
     }
