@@ -25,47 +25,85 @@ pub enum ExrPrecision {
     F16,
 }
 
+/// Everything that can go wrong writing or reading an image. Every error names the file.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum ImageIoError {
+    /// The extension is neither `.exr` nor `.png` (nothing was written).
     #[error(
         "cannot write {}: unsupported image extension {}; use .exr (linear radiance) or .png \
          (tone-mapped)",
         .path.display(),
         .ext.as_deref().map_or("(none)".to_string(), |e| format!("'.{e}'"))
     )]
-    UnsupportedExtension { path: PathBuf, ext: Option<String> },
+    UnsupportedExtension {
+        /// The file concerned.
+        path: PathBuf,
+        /// The extension given, if any.
+        ext: Option<String>,
+    },
+    /// The pixel slice does not hold `width * height` pixels.
     #[error(
         "cannot write {}: a {width}x{height} image needs {} pixels, but {len} were given",
         .path.display(), (*.width as u128) * (*.height as u128)
     )]
     SizeMismatch {
+        /// The file concerned.
         path: PathBuf,
+        /// Width in pixels.
         width: usize,
+        /// Height in pixels.
         height: usize,
+        /// Number of pixels given.
         len: usize,
     },
+    /// The image has no pixels.
     #[error("cannot write {}: the image is empty ({width}x{height})", .path.display())]
     Empty {
+        /// The file concerned.
         path: PathBuf,
+        /// Width in pixels.
         width: usize,
+        /// Height in pixels.
         height: usize,
     },
+    /// The size does not fit the format (EXR stores coordinates as i32, PNG as u32).
     #[error("cannot write {}: {width}x{height} is too large for the format", .path.display())]
     TooLarge {
+        /// The file concerned.
         path: PathBuf,
+        /// Width in pixels.
         width: usize,
+        /// Height in pixels.
         height: usize,
     },
+    /// The exposure multiplier is negative or not finite.
     #[error(
         "cannot write {}: exposure must be a finite number >= 0, got {exposure}",
         .path.display()
     )]
-    BadExposure { path: PathBuf, exposure: f32 },
+    BadExposure {
+        /// The file concerned.
+        path: PathBuf,
+        /// The exposure given.
+        exposure: f32,
+    },
+    /// Encoding, writing, syncing or renaming the file failed.
     #[error("cannot write image {}: {source}", .path.display())]
-    Write { path: PathBuf, source: io::Error },
+    Write {
+        /// The file concerned.
+        path: PathBuf,
+        /// The underlying I/O error.
+        source: io::Error,
+    },
+    /// The file is missing, not a regular file, or not a readable EXR with an RGB layer.
     #[error("cannot read EXR {}: {reason}", .path.display())]
-    Read { path: PathBuf, reason: String },
+    Read {
+        /// The file concerned.
+        path: PathBuf,
+        /// What went wrong (the EXR decoder's message, or why the path is unusable).
+        reason: String,
+    },
 }
 
 type Result<T, E = ImageIoError> = std::result::Result<T, E>;

@@ -5,12 +5,17 @@
 //! * [`family`]: the BRDF families and which parameter fits which family.
 //! * [`image_io`]: EXR/PNG writing (atomic) and EXR reading.
 //! * [`overrides`]: `--set MATERIAL.PARAM=VALUE` parsing.
+//! * [`basis`]: the persisted BRDF basis of editable materials and its evaluation.
+//! * [`pixel`]: the per-pixel bake schema (metadata, slots, relighting weights).
+
+#![warn(missing_docs)]
 
 pub mod basis;
 pub mod container;
 pub mod family;
 pub mod image_io;
 pub mod overrides;
+#[allow(missing_docs)] // documented by the per-pixel schema work
 pub mod pixel;
 
 pub use container::{

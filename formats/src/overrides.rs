@@ -29,13 +29,18 @@ pub const ALPHA_MAX: f32 = crate::family::ALPHA_RANGE.1;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[non_exhaustive]
 pub enum Param {
+    /// `kd`: diffuse albedo (RGB).
     Kd,
+    /// `ks`: specular albedo (RGB).
     Ks,
+    /// `shininess`: the Blinn-Phong exponent.
     Shininess,
+    /// `alpha`: the GGX roughness.
     Alpha,
 }
 
 impl Param {
+    /// Every parameter, in the order error messages list them.
     pub const ALL: &'static [Param] = &[Param::Kd, Param::Ks, Param::Shininess, Param::Alpha];
 
     /// The name used on the command line.
@@ -86,6 +91,7 @@ pub enum OverrideValue {
 }
 
 impl OverrideValue {
+    /// The parameter this value sets.
     pub fn param(&self) -> Param {
         match self {
             OverrideValue::Kd(_) => Param::Kd,
@@ -99,7 +105,9 @@ impl OverrideValue {
 /// One parsed `--set` argument.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MaterialOverride {
+    /// Name of the material (everything before the last `.`; may contain dots).
     pub material: String,
+    /// The parameter and its new value.
     pub value: OverrideValue,
 }
 
@@ -127,52 +135,100 @@ impl FromStr for MaterialOverride {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum OverrideError {
+    /// No `=` in the argument.
     #[error("'{input}': missing '=' (expected MATERIAL.PARAM=VALUE, e.g. bunny.kd=0.8,0.2,0.2)")]
-    MissingEquals { input: String },
+    MissingEquals {
+        /// The whole argument as given.
+        input: String,
+    },
+    /// No `.` between the material and the parameter.
     #[error(
         "'{input}': missing '.' between material and parameter (expected MATERIAL.PARAM=VALUE, \
          e.g. bunny.shininess=50)"
     )]
-    MissingDot { input: String },
+    MissingDot {
+        /// The whole argument as given.
+        input: String,
+    },
+    /// The material name before the last `.` is empty.
     #[error("'{input}': empty material name")]
-    EmptyMaterial { input: String },
+    EmptyMaterial {
+        /// The whole argument as given.
+        input: String,
+    },
+    /// The parameter name is not one of [`Param::ALL`].
     #[error("'{input}': unknown parameter '{param}'; valid parameters: {valid}")]
     UnknownParam {
+        /// The whole argument as given.
         input: String,
+        /// The parameter concerned.
         param: String,
+        /// The valid parameter names, comma-separated.
         valid: String,
     },
+    /// A value has the wrong number of comma-separated components (a colour takes 1 or 3, a
+    /// scalar exactly 1).
     #[error("'{input}': {param} needs {expected}, got {got}")]
     WrongComponentCount {
+        /// The whole argument as given.
         input: String,
+        /// The parameter concerned.
         param: Param,
+        /// What the parameter takes, in words (e.g. "exactly 1 number").
         expected: &'static str,
+        /// The number of components given.
         got: usize,
     },
+    /// A value component does not parse as a number.
     #[error("'{input}': '{text}' is not a number")]
-    NotANumber { input: String, text: String },
+    NotANumber {
+        /// The whole argument as given.
+        input: String,
+        /// The offending text.
+        text: String,
+    },
+    /// A value is NaN or infinite.
     #[error("'{input}': {param} must be finite, got {value}")]
     NonFinite {
+        /// The whole argument as given.
         input: String,
+        /// The parameter concerned.
         param: Param,
+        /// The value given.
         value: f32,
     },
+    /// A colour component is negative.
     #[error("'{input}': {param} must not be negative, got {value}")]
     Negative {
+        /// The whole argument as given.
         input: String,
+        /// The parameter concerned.
         param: Param,
+        /// The value given.
         value: f32,
     },
+    /// A shininess or roughness lies outside its accepted range.
     #[error("'{input}': {param} must be in [{min}, {max}], got {value}")]
     OutOfRange {
+        /// The whole argument as given.
         input: String,
+        /// The parameter concerned.
         param: Param,
+        /// The value given.
         value: f32,
+        /// Smallest accepted value.
         min: f32,
+        /// Largest accepted value.
         max: f32,
     },
+    /// The material is not one of the scene's ([`check_material`]).
     #[error("unknown material '{name}'; the scene has: {available}")]
-    UnknownMaterial { name: String, available: String },
+    UnknownMaterial {
+        /// The material name given.
+        name: String,
+        /// The scene's material names, comma-separated.
+        available: String,
+    },
 }
 
 /// Parses `MATERIAL.PARAM=VALUE`. Usable directly as a clap `value_parser`.

@@ -1,11 +1,13 @@
 //! PRT runtime: opens a per-pixel bake file and produces images for any setting of the
-//! editable materials, without tracing a ray (DESIGN.md 2.1, 2.3). It depends only on
-//! `prt-formats`, never on the baker.
+//! editable materials, without tracing a ray (see docs/pixel.md, "Storage and relighting"). It
+//! depends only on `prt-formats`, never on the baker.
 //!
 //! Relighting contracts each group's per-pixel transfer rows with weights built from the
 //! current slot coefficients ([`prt_formats::pixel::group_weights`]): uncompressed, one
 //! multiply-add per stored value and channel; compressed (PCA over pixels), the K components
 //! are contracted once per frame and each pixel costs K multiply-adds per channel.
+
+#![warn(missing_docs)]
 
 use std::path::Path;
 use std::time::Instant;
@@ -19,22 +21,49 @@ use prt_formats::pixel::{
 use prt_formats::{BakeFile, Dtype, FormatError};
 use rayon::prelude::*;
 
+/// Why a bake file could not be opened for relighting, or an edit or render was refused.
 #[derive(Debug, thiserror::Error)]
 pub enum RuntimeError {
+    /// The container itself is unreadable or corrupt (see [`FormatError`]).
     #[error(transparent)]
     Format(#[from] FormatError),
+    /// The file is a valid container but not a consistent per-pixel bake (wrong schema
+    /// version, metadata or tensor shapes).
     #[error("{path}: not a per-pixel bake file: {reason}")]
-    Schema { path: String, reason: String },
+    Schema {
+        /// The bake file, as given.
+        path: String,
+        /// What is inconsistent.
+        reason: String,
+    },
+    /// An edit names a material the bake does not have.
     #[error("unknown material '{name}'; the bake has: {available}")]
-    UnknownMaterial { name: String, available: String },
+    UnknownMaterial {
+        /// The material name.
+        name: String,
+        /// The bake's material names, comma-separated.
+        available: String,
+    },
+    /// An edit names a material that was not marked editable when baking.
     #[error("material '{name}' is not editable in this bake (editable: {editable})")]
-    NotEditable { name: String, editable: String },
+    NotEditable {
+        /// The material name.
+        name: String,
+        /// The editable materials, comma-separated.
+        editable: String,
+    },
+    /// An edit sets a parameter the material's family does not have (e.g. `alpha` of a
+    /// Blinn-Phong material).
     #[error("material '{name}' is {family}: it has no parameter '{param}'")]
     WrongParam {
+        /// The material name.
         name: String,
+        /// The material's BRDF family (`blinn-phong`, `ggx`, ...).
         family: String,
+        /// The parameter given.
         param: String,
     },
+    /// [`Variant::Compressed`] was requested from a bake without a compressed variant.
     #[error("this bake file has no compressed variant (bake with a compression rank)")]
     NoCompressed,
 }
@@ -42,17 +71,23 @@ pub enum RuntimeError {
 /// Which representation to relight from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Variant {
+    /// The stored transfer rows (`g<k>.t`: f32, or f16 with a per-group scale).
     Full,
+    /// The low-rank (PCA over pixels) approximation (`g<k>.mean`, `.components`, `.weights`),
+    /// present only when the bake was made with a compression rank.
     Compressed,
 }
 
 /// A relit image and what it cost.
 #[derive(Clone, Debug)]
 pub struct Frame {
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
-    /// Row-major, top row first, linear RGB.
+    /// Row-major, top row first, linear RGB (`width * height` pixels).
     pub pixels: Vec<[f32; 3]>,
+    /// Wall-clock time of [`Relighter::render`], in seconds.
     pub seconds: f64,
     /// Bytes of bake data read to make the frame.
     pub bytes_read: u64,
@@ -166,18 +201,22 @@ impl Relighter {
         })
     }
 
+    /// The bake's per-pixel metadata (camera, materials, slots, groups).
     pub fn meta(&self) -> &PixelBakeMeta {
         &self.meta
     }
 
+    /// Image width in pixels.
     pub fn width(&self) -> u32 {
         self.meta.width
     }
 
+    /// Image height in pixels.
     pub fn height(&self) -> u32 {
         self.meta.height
     }
 
+    /// Whether [`Variant::Compressed`] can be rendered (every group has a low-rank variant).
     pub fn has_compressed(&self) -> bool {
         !self.meta.groups.is_empty() && self.meta.groups.iter().all(|g| g.compressed_rank.is_some())
     }

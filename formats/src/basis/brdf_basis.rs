@@ -1,0 +1,158 @@
+//! The persisted [`BrdfBasis`]: its fields, validation, and the lobe coefficients of a
+//! material (evaluation of the tables is in `eval.rs`).
+
+use serde::{Deserialize, Serialize};
+
+use super::{AngularGrid, BasisError, GridKind, GridSpec, ParamWarp, BASIS_SCHEMA_VERSION};
+
+/// A BRDF family's basis, as carried by the bake file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BrdfBasis {
+    /// [`BASIS_SCHEMA_VERSION`].
+    pub version: u32,
+    /// `"blinn-phong"` or `"ggx"`.
+    pub family: String,
+    /// How the basis was built (free text, for provenance).
+    pub method: String,
+    /// Sampled parameter range `[min, max]` (shininess s, or GGX alpha).
+    pub param_range: [f32; 2],
+    /// Warp in which coefficients are interpolated.
+    pub param_warp: ParamWarp,
+    /// Parameter values at which `coefficients` are tabulated, strictly increasing, first and
+    /// last equal to `param_range`.
+    pub param_samples: Vec<f32>,
+    /// Axis sizes of the table grid.
+    pub grid: AngularGrid,
+    /// What the grid's axes are; a missing field means [`GridKind::Angles`] (schema 1).
+    #[serde(default)]
+    pub grid_kind: GridKind,
+    /// `N_b`, including the Lambert basis 0.
+    pub num_bases: usize,
+    /// Basis tables, `grid.len() * num_bases` values, basis index fastest.
+    pub tables: Vec<f32>,
+    /// Lobe coefficients `a_b(p)`, `param_samples.len() * num_bases` values, basis index
+    /// fastest.
+    pub coefficients: Vec<f32>,
+}
+
+impl BrdfBasis {
+    /// The table grid (kind and sizes).
+    pub fn grid_spec(&self) -> GridSpec {
+        GridSpec::new(self.grid_kind, self.grid)
+    }
+
+    /// Checks version, shapes, ordering and finiteness.
+    pub fn validate(&self) -> Result<(), BasisError> {
+        if self.version != BASIS_SCHEMA_VERSION {
+            return Err(BasisError::Version {
+                found: self.version,
+                expected: BASIS_SCHEMA_VERSION,
+            });
+        }
+        self.grid.validate()?;
+        if self.num_bases == 0 {
+            return Err(BasisError::Invalid("num_bases is 0".into()));
+        }
+        let want = self.grid.len() * self.num_bases;
+        if self.tables.len() != want {
+            return Err(BasisError::Shape {
+                field: "tables",
+                found: self.tables.len(),
+                expected: want,
+            });
+        }
+        if self.param_samples.is_empty() {
+            return Err(BasisError::Invalid("no parameter samples".into()));
+        }
+        let want = self.param_samples.len() * self.num_bases;
+        if self.coefficients.len() != want {
+            return Err(BasisError::Shape {
+                field: "coefficients",
+                found: self.coefficients.len(),
+                expected: want,
+            });
+        }
+        if !self.param_samples.windows(2).all(|w| w[0] < w[1]) {
+            return Err(BasisError::Invalid(
+                "param_samples must be strictly increasing".into(),
+            ));
+        }
+        if let ParamWarp::Log { offset } = self.param_warp {
+            if self.param_samples[0] + offset <= 0.0 || offset.is_nan() {
+                return Err(BasisError::Invalid(
+                    "log warp needs param + offset > 0 over the range".into(),
+                ));
+            }
+        }
+        if !self.tables.iter().all(|v| v.is_finite())
+            || !self.coefficients.iter().all(|v| v.is_finite())
+            || !self.param_samples.iter().all(|v| v.is_finite())
+        {
+            return Err(BasisError::Invalid("non-finite values".into()));
+        }
+        Ok(())
+    }
+
+    /// Lobe coefficients `a_b(param)` (length `num_bases`) by linear interpolation in the
+    /// warped parameter; `clamped` is true when `param` was outside the sampled range (or not
+    /// finite) and was clamped to it.
+    pub fn coefficients(&self, param: f32) -> (Vec<f32>, bool) {
+        let mut out = vec![0.0; self.num_bases];
+        let clamped = self.coefficients_into(param, &mut out);
+        (out, clamped)
+    }
+
+    /// Allocation-free [`BrdfBasis::coefficients`]; `out` must hold `num_bases` values.
+    pub fn coefficients_into(&self, param: f32, out: &mut [f32]) -> bool {
+        let nb = self.num_bases;
+        let ps = &self.param_samples;
+        let (lo, hi) = (ps[0], ps[ps.len() - 1]);
+        let clamped = !(param >= lo && param <= hi);
+        let p = if param.is_nan() {
+            lo
+        } else {
+            param.clamp(lo, hi)
+        };
+        if ps.len() == 1 {
+            out[..nb].copy_from_slice(&self.coefficients[..nb]);
+            return clamped;
+        }
+        // first sample index j with ps[j] > p, so ps[j0] <= p < ps[j0 + 1]
+        let j = ps.partition_point(|&x| x <= p);
+        let j0 = j.saturating_sub(1).min(ps.len() - 2);
+        let u0 = self.param_warp.apply_f32(ps[j0]);
+        let u1 = self.param_warp.apply_f32(ps[j0 + 1]);
+        let u = self.param_warp.apply_f32(p);
+        let t = if u1 > u0 {
+            ((u - u0) / (u1 - u0)).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let a = &self.coefficients[j0 * nb..(j0 + 1) * nb];
+        let b = &self.coefficients[(j0 + 1) * nb..(j0 + 2) * nb];
+        for k in 0..nb {
+            out[k] = a[k] + t * (b[k] - a[k]);
+        }
+        clamped
+    }
+
+    /// Per-channel basis coefficients of the BRDF `Kd/pi + Ks * lobe_param`:
+    /// `c_0 = Kd + Ks a_0`, `c_b = Ks a_b`. Returns `(c[b][channel], clamped)`.
+    pub fn material_coefficients(
+        &self,
+        kd: [f32; 3],
+        ks: [f32; 3],
+        param: f32,
+    ) -> (Vec<[f32; 3]>, bool) {
+        let (a, clamped) = self.coefficients(param);
+        let c = a
+            .iter()
+            .enumerate()
+            .map(|(b, &ab)| {
+                let d = if b == 0 { kd } else { [0.0; 3] };
+                [d[0] + ks[0] * ab, d[1] + ks[1] * ab, d[2] + ks[2] * ab]
+            })
+            .collect();
+        (c, clamped)
+    }
+}
