@@ -3,11 +3,13 @@
 //!
 //! * [`container`]: the bake file (safetensors layout, checksums, versioning, zero-copy reads).
 //! * [`image_io`]: EXR/PNG writing (atomic) and EXR reading.
+//! * [`latlong`]: the lat-long (equirectangular) environment mapping, uv <-> direction.
 //! * [`overrides`]: `--set MATERIAL.PARAM=VALUE` parsing.
 
 pub mod basis;
 pub mod container;
 pub mod image_io;
+pub mod latlong;
 pub mod overrides;
 pub mod pixel;
 
