@@ -1,6 +1,8 @@
 //! `bake`: the offline baker.
 //!
 //!     bake scenes/cornell/bake.toml            bake the config (writes its output file)
+//!     bake scenes/cornell                      the same: a folder means its bake.toml
+//!     bake model.glb [--print-config]          bake a glTF with defaults (or print them)
 //!     bake basis --family blinn-phong ...      BRDF basis error tables and report
 //!     bake bench rays                          ray throughput on a ~100K-triangle scene
 //!     bake bench pixel                         the per-pixel speed-vs-error report
@@ -76,8 +78,12 @@ enum BenchCommand {
 
 #[derive(Args, Debug)]
 struct BakeArgs {
-    /// The bake config (TOML) to bake.
-    config: Option<PathBuf>,
+    /// What to bake: a bake config (.toml), a scene folder holding bake.toml, or a glTF scene
+    /// (.gltf/.glb) baked with defaults (docs/config.md).
+    input: Option<PathBuf>,
+    /// Print the config (TOML) that INPUT resolves to on stdout and exit without baking.
+    #[arg(long)]
+    print_config: bool,
     /// Samples per pixel (default: the config's).
     #[arg(long)]
     spp: Option<u32>,
@@ -135,16 +141,33 @@ fn run(cli: Cli) -> Result<()> {
             quiet,
         })) => bench_pixel(configs, out, img_dir, work_dir, quick, quiet),
         None => {
-            let Some(config) = cli.bake.config.clone() else {
-                bail!("give a bake config, e.g. `bake scenes/cornell/bake.toml` (see --help)");
+            let Some(input) = cli.bake.input.clone() else {
+                bail!(
+                    "give a bake config, a scene folder or a glTF scene, e.g. \
+                     `bake scenes/cornell` (see --help)"
+                );
             };
-            bake(&config, &cli.bake)
+            bake(&input, &cli.bake)
         }
     }
 }
 
-fn bake(config_path: &std::path::Path, a: &BakeArgs) -> Result<()> {
-    let (config, scene) = load(config_path)?;
+fn bake(input: &std::path::Path, a: &BakeArgs) -> Result<()> {
+    use prt_bake::config::input::{self, InputKind};
+    let resolved = input::resolve(input)?;
+    if a.print_config {
+        print!("{}", resolved.config.to_toml());
+        return Ok(());
+    }
+    if resolved.kind == InputKind::Gltf && !(a.quiet || a.json) {
+        eprint!(
+            "{}: baking with this config (save it with --print-config):\n{}\n",
+            input.display(),
+            resolved.config.to_toml()
+        );
+    }
+    let config = resolved.config;
+    let scene = input::load_scene(&config)?;
     if config.mode == Mode::Vertex {
         bail!(
             "{}: mode = \"vertex\" (per-vertex transfer tensors) is not implemented yet; use mode = \"pixel\"",
