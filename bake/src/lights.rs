@@ -6,6 +6,7 @@
 //! needed and the densities used for multiple importance sampling are simple.
 
 use glam::{Vec2, Vec3};
+use prt_formats::latlong;
 use std::f32::consts::PI;
 
 use crate::sampling::{uniform_triangle, Distribution1D};
@@ -199,9 +200,8 @@ impl LightSet {
                 height,
                 texels,
             } => {
-                let (u, v) = direction_to_latlong(dir);
-                let x = ((u * *width as f32) as usize).min(*width as usize - 1);
-                let y = ((v * *height as f32) as usize).min(*height as usize - 1);
+                let (u, v) = latlong::direction_to_uv(dir.to_array());
+                let (x, y) = latlong::uv_to_texel(u, v, *width as usize, *height as usize);
                 texels[y * *width as usize + x]
             }
         }
@@ -345,7 +345,7 @@ impl EnvMapSampler {
         let (x, fx) = cols.sample(u.x);
         let uu = (x as f32 + fx) / self.width as f32;
         let vv = (y as f32 + fy) / self.height as f32;
-        let dir = latlong_to_direction(uu, vv);
+        let dir = Vec3::from_array(latlong::uv_to_direction(uu, vv));
         let sin_t = (PI * vv).sin();
         if sin_t <= 0.0 {
             return None;
@@ -355,9 +355,8 @@ impl EnvMapSampler {
     }
 
     fn pdf(&self, dir: Vec3) -> f32 {
-        let (u, v) = direction_to_latlong(dir);
-        let x = ((u * self.width as f32) as usize).min(self.width - 1);
-        let y = ((v * self.height as f32) as usize).min(self.height - 1);
+        let (u, v) = latlong::direction_to_uv(dir.to_array());
+        let (x, y) = latlong::uv_to_texel(u, v, self.width, self.height);
         let Some(cols) = self.columns[y].as_ref() else {
             return 0.0;
         };
@@ -368,22 +367,6 @@ impl EnvMapSampler {
         let pdf_uv = self.rows.pmf(y) * cols.pmf(x) * (self.width * self.height) as f32;
         pdf_uv / (2.0 * PI * PI * sin_t)
     }
-}
-
-/// Lat-long convention of [`Environment::LatLong`]: theta from +Y, phi about Y with phi = 0
-/// towards -Z.
-pub fn latlong_to_direction(u: f32, v: f32) -> Vec3 {
-    let theta = PI * v;
-    let phi = 2.0 * PI * (u - 0.5);
-    let st = theta.sin();
-    Vec3::new(st * phi.sin(), theta.cos(), -st * phi.cos())
-}
-
-pub fn direction_to_latlong(d: Vec3) -> (f32, f32) {
-    let theta = d.y.clamp(-1.0, 1.0).acos();
-    let phi = d.x.atan2(-d.z);
-    let u = (phi / (2.0 * PI) + 0.5).rem_euclid(1.0);
-    (u, (theta / PI).clamp(0.0, 1.0))
 }
 
 /// Tangent and bitangent completing the unit normal `n` (Duff et al. 2017, branchless).

@@ -1,7 +1,7 @@
 //! BRDF family properties (docs/brdf.md): non-negativity, reciprocity, directional albedo,
 //! sampling densities (normalization and histogram of sampled directions).
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use prt_bake::brdf::{BrdfParams, Family};
 use prt_bake::sampling::Rng;
 use std::f64::consts::PI;

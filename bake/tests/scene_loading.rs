@@ -1,5 +1,6 @@
-//! Scene input: the example scenes load with the expected content, and malformed input (glTF,
-//! GLB, buffers, images, configs) gives an error naming the problem instead of a panic.
+//! Scene input: the example scenes load with the expected content, malformed input (glTF,
+//! GLB, buffers, images, configs) gives an error naming the problem instead of a panic, and
+//! `bake INPUT` accepts a config, a scene folder or a bare glTF (`config::input`).
 //!
 //! Malformed files are written from small hand-made glTF documents into a fresh folder under
 //! the system temp dir, removed again when the test ends.
@@ -9,7 +10,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use glam::{Vec2, Vec3};
 use prt_bake::brdf::Family;
-use prt_bake::config::{BakeConfig, ConfigError, EnvironmentConfig, Mode};
+use prt_bake::config::input::{self, InputError, InputKind};
+use prt_bake::config::{BakeConfig, ConfigError, EnvironmentConfig, MaterialConfig, Mode};
 use prt_bake::scene::{load_with_warnings, Environment, PunctualLight, Scene, SceneError};
 use serde_json::{json, Value};
 
@@ -1020,6 +1022,8 @@ fn config_bad_values_name_the_key() {
         ("spp = 0", "`spp`"),
         ("spp = 100000000", "`spp`"),
         ("reflections = 0", "`reflections`"),
+        // One limit for the config and the integrator: more would be silently clamped.
+        ("reflections = 5", "`reflections`"),
         ("mode = \"voxel\"", "voxel"),
         ("seed = -1", "seed"),
         ("[environment]\ncolor = [1, -1, 0]", "`environment.color`"),
@@ -1242,4 +1246,192 @@ fn glb_embedded_image_via_buffer_view() {
     let t = scene.materials[0].emissive_texture.unwrap();
     assert_eq!(scene.textures[t].texels, [Vec3::Y]);
     assert!(scene.materials[0].is_emissive());
+}
+
+// ---------------------------------------------------------------------------------------------
+// What `bake INPUT` accepts (config::input) and configs written back as TOML.
+
+/// The config's TOML parses back (from the same config path) to the same config, and writing
+/// that again gives the same text.
+fn assert_roundtrip(c: &BakeConfig) {
+    let text = c.to_toml();
+    let back = BakeConfig::parse(&text, &c.config_path).unwrap_or_else(|e| panic!("{e}\n{text}"));
+    assert_eq!(&back, c, "{text}");
+    assert_eq!(back.to_toml(), text);
+}
+
+#[test]
+fn input_folder_means_its_bake_toml() {
+    let r = input::resolve(&scenes_dir().join("cornell")).unwrap();
+    assert_eq!(r.kind, InputKind::SceneFolder);
+    let direct = BakeConfig::from_file(scenes_dir().join("cornell/bake.toml")).unwrap();
+    assert_eq!(r.config, direct);
+    let r = input::resolve(&scenes_dir().join("cornell/bake.toml")).unwrap();
+    assert_eq!(r.kind, InputKind::Config);
+    assert_eq!(r.config, direct);
+    // The example configs survive a round trip through TOML too.
+    for name in ["cornell", "ring", "furnace"] {
+        assert_roundtrip(&load_example(name).0);
+    }
+}
+
+#[test]
+fn input_glb_bakes_with_defaults() {
+    let path = scenes_dir().join("furnace/furnace.glb");
+    let r = input::resolve(&path).unwrap();
+    assert_eq!(r.kind, InputKind::Gltf);
+    let c = &r.config;
+    assert_eq!(c.scene_path, path);
+    assert_eq!(c.mode, Mode::Pixel);
+    assert_eq!((c.width, c.height, c.spp, c.reflections), (256, 256, 64, 2));
+    assert_eq!(c.output, scenes_dir().join("furnace/out/furnace.prtbake"));
+    assert_eq!(c.environment, EnvironmentConfig::Color(Vec3::ZERO));
+    // The GLB has a camera, so the config names none and the glTF's is used.
+    assert!(c.camera.is_none());
+    let editable_diffuse = MaterialConfig {
+        editable: true,
+        family: Some(Family::Diffuse),
+        ..MaterialConfig::default()
+    };
+    assert_eq!(c.materials, vec![("sphere".to_owned(), editable_diffuse)]);
+    let scene = prt_bake::run::load_scene(c, &prt_bake::progress::Silent).unwrap();
+    let (_, example, _) = load_example("furnace");
+    assert_eq!(scene.camera, example.camera);
+    assert!(scene.materials[0].editable);
+    assert_roundtrip(c);
+}
+
+#[test]
+fn input_gltf_leaves_emissive_materials_alone() {
+    let r = input::resolve(&scenes_dir().join("cornell/cornell.gltf")).unwrap();
+    let names: Vec<&str> = r.config.materials.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(names, ["white", "red", "green", "bunny", "tall_box"]);
+    let family = |n: &str| r.config.material(n).unwrap().family;
+    // The bunny is glossy in the glTF (ggx); the walls and the tall box are fully rough.
+    assert_eq!(family("bunny"), Some(Family::Ggx));
+    assert_eq!(family("white"), Some(Family::Diffuse));
+    assert_eq!(family("tall_box"), Some(Family::Diffuse));
+    assert!(r.config.materials.iter().all(|(_, m)| m.editable));
+    let scene = prt_bake::run::load_scene(&r.config, &prt_bake::progress::Silent).unwrap();
+    assert!(!scene.materials[scene.material_index("light").unwrap()].editable);
+    assert_roundtrip(&r.config);
+}
+
+#[test]
+fn input_gltf_without_camera_gets_a_framing_camera() {
+    let dir = TempDir::new("frame");
+    let mut doc = Doc::new();
+    doc.mesh(
+        &[
+            2.0, 1.0, -3.0, 4.0, 1.0, -3.0, 2.0, 3.0, -4.0, 5.0, -1.0, -6.0, 6.0, 0.0, -6.0, 5.0,
+            0.5, -5.0,
+        ],
+        None,
+        None,
+    );
+    doc.json["nodes"][0] = json!({"name": "empty"});
+    doc.json.as_object_mut().unwrap().remove("cameras");
+    let path = doc.write_embedded(&dir);
+    // Loading it with a plain config is still an error: only the defaults frame the scene.
+    assert!(load_err(&BakeConfig::with_defaults(&path)).contains("no camera"));
+
+    let r = input::resolve(&path).unwrap();
+    assert_eq!(r.kind, InputKind::Gltf);
+    let framing = r.config.camera.expect("a framing camera");
+    assert!(framing.position.is_finite() && framing.target.is_finite());
+    let scene = prt_bake::run::load_scene(&r.config, &prt_bake::progress::Silent).unwrap();
+    let cam = scene.camera;
+    assert!(cam.position.is_finite() && cam.forward.is_finite() && cam.up.is_finite());
+    let tan = (0.5 * cam.yfov).tan();
+    let aspect = r.config.width as f32 / r.config.height as f32;
+    for p in &scene.positions {
+        let d = *p - cam.position;
+        let z = d.dot(cam.forward);
+        assert!(z > 0.0, "{p} is behind the camera");
+        assert!(
+            d.dot(cam.up).abs() / z < tan,
+            "{p} is above or below the view"
+        );
+        assert!(
+            d.dot(cam.right).abs() / z < tan * aspect,
+            "{p} is left or right of the view"
+        );
+    }
+    // Primitives without a material share `default`: editable diffuse.
+    assert_eq!(r.config.materials.len(), 1);
+    assert_eq!(r.config.materials[0].0, "default");
+    assert_eq!(r.config.materials[0].1.family, Some(Family::Diffuse));
+    assert_roundtrip(&r.config);
+
+    // The printed config, saved beside the glTF, gives the same config and the same scene.
+    dir.write("bake.toml", r.config.to_toml());
+    let again = input::resolve(&dir.0).unwrap();
+    assert_eq!(again.kind, InputKind::SceneFolder);
+    assert_eq!(again.config, r.config);
+    let scene2 = prt_bake::run::load_scene(&again.config, &prt_bake::progress::Silent).unwrap();
+    assert_eq!(scene2.camera, scene.camera);
+    assert_eq!(scene2.positions, scene.positions);
+}
+
+#[test]
+fn input_of_the_wrong_form_says_what_was_expected() {
+    const EXPECTED: &str = "expected a bake config (.toml), a scene folder holding bake.toml, \
+                            or a glTF scene (.gltf/.glb)";
+    let dir = TempDir::new("forms");
+    dir.write("notes.txt", "hello");
+    for (path, reason) in [
+        (dir.0.join("missing"), "no such file or folder"),
+        (dir.0.join("missing.glb"), "no such file or folder"),
+        (dir.0.clone(), "the folder holds no bake.toml"),
+        (dir.0.join("notes.txt"), "unknown file type"),
+    ] {
+        let e = input::resolve(&path).unwrap_err();
+        assert!(matches!(e, InputError::WrongForm { .. }), "{e:?}");
+        let e = e.to_string();
+        assert!(e.starts_with(&path.display().to_string()), "{e}");
+        assert!(e.contains(reason) && e.contains(EXPECTED), "{e}");
+    }
+    // The right form with bad content: the config's or the scene's own error, naming the file.
+    dir.write("bad.toml", "scene = ");
+    let e = input::resolve(&dir.0.join("bad.toml")).unwrap_err();
+    assert!(matches!(e, InputError::Config(_)), "{e:?}");
+    assert!(e.to_string().contains("bad.toml"), "{e}");
+    let e = input::resolve(&dir.0.join("absent.toml")).unwrap_err();
+    assert!(
+        matches!(e, InputError::Config(ConfigError::Io { .. })),
+        "{e:?}"
+    );
+    dir.write("bad.glb", "not a glb");
+    let e = input::resolve(&dir.0.join("bad.glb")).unwrap_err();
+    assert!(
+        matches!(e, InputError::Scene(SceneError::Parse { .. })),
+        "{e:?}"
+    );
+    assert!(e.to_string().contains("bad.glb"), "{e}");
+}
+
+#[test]
+fn config_camera_table() {
+    let c = BakeConfig::parse(
+        "scene = \"x.gltf\"\n[camera]\nposition = [0, 1, 5]\ntarget = [0, 1, 0]\n",
+        "/somewhere/bake.toml",
+    )
+    .unwrap();
+    let cam = c.camera.unwrap();
+    assert_eq!(cam.position, Vec3::new(0.0, 1.0, 5.0));
+    assert_eq!(cam.yfov, prt_bake::config::DEFAULT_YFOV);
+    assert_roundtrip(&c);
+    for (body, key) in [
+        ("position = [0, 0, 0]\ntarget = [0, 0, 0]", "camera.target"),
+        ("position = [0, 0, 0]\ntarget = [0, 5, 0]", "camera.target"),
+        (
+            "position = [0, 0, 1]\ntarget = [0, 0, 0]\nyfov = 4",
+            "camera.yfov",
+        ),
+        ("position = [0, 0, 1]", "target"),
+        ("position = [0, 0, 1]\ntarget = [0, 0, 0]\nfov = 1", "fov"),
+    ] {
+        let e = config_err(&format!("scene = \"x.gltf\"\n[camera]\n{body}\n"));
+        assert!(e.contains(key), "{body:?}: {e}");
+    }
 }

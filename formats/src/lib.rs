@@ -4,6 +4,7 @@
 //! * [`container`]: the bake file (safetensors layout, checksums, versioning, zero-copy reads).
 //! * [`family`]: the BRDF families and which parameter fits which family.
 //! * [`image_io`]: EXR/PNG writing (atomic) and EXR reading.
+//! * [`latlong`]: the lat-long (equirectangular) environment mapping, uv <-> direction.
 //! * [`overrides`]: `--set MATERIAL.PARAM=VALUE` parsing.
 //! * [`basis`]: the persisted BRDF basis of editable materials and its evaluation.
 //! * [`pixel`]: the per-pixel bake schema (metadata, slots, relighting weights).
@@ -14,6 +15,7 @@ pub mod basis;
 pub mod container;
 pub mod family;
 pub mod image_io;
+pub mod latlong;
 pub mod overrides;
 #[allow(missing_docs)] // documented by the per-pixel schema work
 pub mod pixel;

@@ -13,6 +13,33 @@ use super::Environment;
 /// Larger maps are refused: 32K x 16K RGB f32 is already 6 GiB.
 pub const MAX_ENV_SIDE: usize = 32768;
 
+/// Why an environment map cannot be used. The caller ([`crate::scene::SceneError`]) adds the
+/// file name.
+#[derive(Debug, thiserror::Error)]
+pub enum EnvMapError {
+    #[error("intensity {0} must be finite and >= 0")]
+    Intensity(f32),
+    #[error("unknown extension (expected .exr or .hdr)")]
+    Extension,
+    #[error("the image is empty")]
+    Empty,
+    #[error("{width}x{height} is larger than the supported {MAX_ENV_SIDE}x{MAX_ENV_SIDE}")]
+    TooLarge { width: usize, height: usize },
+    /// The OpenEXR file is missing, unreadable or malformed.
+    #[error("cannot read OpenEXR: {reason}")]
+    Exr { reason: String },
+    #[error("cannot open: {0}")]
+    Open(#[source] std::io::Error),
+    #[error("cannot read: {0}")]
+    Read(#[source] std::io::Error),
+    #[error("not a Radiance HDR file")]
+    NotHdr,
+    #[error("cannot read Radiance HDR header: {0}")]
+    HdrHeader(#[source] image::ImageError),
+    #[error("cannot decode Radiance HDR: {0}")]
+    HdrDecode(#[source] image::ImageError),
+}
+
 /// What loading an environment map produced, besides the map.
 #[derive(Debug, Default)]
 pub struct EnvMapReport {
@@ -21,10 +48,13 @@ pub struct EnvMapReport {
 }
 
 /// Loads `path` (.exr or .hdr, by extension) as an [`Environment::LatLong`] scaled by
-/// `intensity`. Errors are plain messages; the caller adds the file name.
-pub fn load_latlong(path: &Path, intensity: f32) -> Result<(Environment, EnvMapReport), String> {
+/// `intensity`. Errors do not repeat the file name; the caller adds it.
+pub fn load_latlong(
+    path: &Path,
+    intensity: f32,
+) -> Result<(Environment, EnvMapReport), EnvMapError> {
     if !(intensity.is_finite() && intensity >= 0.0) {
-        return Err(format!("intensity {intensity} must be finite and >= 0"));
+        return Err(EnvMapError::Intensity(intensity));
     }
     let ext = path
         .extension()
@@ -33,10 +63,10 @@ pub fn load_latlong(path: &Path, intensity: f32) -> Result<(Environment, EnvMapR
     let (width, height, mut texels) = match ext.as_str() {
         "exr" => read_exr(path)?,
         "hdr" => read_hdr(path)?,
-        _ => return Err("unknown extension (expected .exr or .hdr)".to_owned()),
+        _ => return Err(EnvMapError::Extension),
     };
     if width == 0 || height == 0 {
-        return Err("the image is empty".to_owned());
+        return Err(EnvMapError::Empty);
     }
     let mut report = EnvMapReport::default();
     for t in &mut texels {
@@ -62,61 +92,56 @@ pub fn load_latlong(path: &Path, intensity: f32) -> Result<(Environment, EnvMapR
 
 type Pixels = (usize, usize, Vec<Vec3>);
 
-fn read_exr(path: &Path) -> Result<Pixels, String> {
-    use exr::prelude::*;
-    if !path.is_file() {
-        return Err("file not found".to_owned());
-    }
-    let image = read_first_rgba_layer_from_file(
-        path,
-        |resolution, _| {
-            let (w, h) = (resolution.width(), resolution.height());
+/// Reads the first RGB(A) layer through [`prt_formats::read_exr_rgb`], after checking the
+/// header's sizes (so a corrupt or hostile header cannot make us allocate gigabytes).
+fn read_exr(path: &Path) -> Result<Pixels, EnvMapError> {
+    use prt_formats::ImageIoError;
+    let exr_err = |e: ImageIoError| EnvMapError::Exr {
+        reason: match e {
+            ImageIoError::Read { reason, .. } => reason,
+            other => other.to_string(),
+        },
+    };
+    if path.is_file() {
+        let meta =
+            exr::meta::MetaData::read_from_file(path, false).map_err(|e| EnvMapError::Exr {
+                reason: e.to_string(),
+            })?;
+        for header in meta.headers.iter() {
+            let (w, h) = (header.layer_size.width(), header.layer_size.height());
             if w > MAX_ENV_SIDE || h > MAX_ENV_SIDE {
-                // Signalled to the caller by the empty buffer; avoids allocating.
-                (w, h, Vec::new())
-            } else {
-                (w, h, vec![Vec3::ZERO; w * h])
+                return Err(EnvMapError::TooLarge {
+                    width: w,
+                    height: h,
+                });
             }
-        },
-        |px: &mut Pixels, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
-            let (w, _, ref mut data) = *px;
-            if let Some(t) = data.get_mut(pos.y() * w + pos.x()) {
-                *t = Vec3::new(r, g, b);
-            }
-        },
-    )
-    .map_err(|e| format!("cannot read OpenEXR: {e}"))?;
-    let (w, h, data) = image.layer_data.channel_data.pixels;
-    if data.len() != w * h {
-        return Err(format!(
-            "{w}x{h} is larger than the supported {MAX_ENV_SIDE}x{MAX_ENV_SIDE}"
-        ));
+        }
     }
-    Ok((w, h, data))
+    let (w, h, data) = prt_formats::read_exr_rgb(path).map_err(exr_err)?;
+    Ok((w, h, data.into_iter().map(Vec3::from_array).collect()))
 }
 
-fn read_hdr(path: &Path) -> Result<Pixels, String> {
-    let reader = image::ImageReader::open(path)
-        .map_err(|e| format!("cannot open: {e}"))?
-        .with_guessed_format()
-        .map_err(|e| format!("cannot read: {e}"))?;
+fn read_hdr(path: &Path) -> Result<Pixels, EnvMapError> {
+    let open = || -> Result<_, EnvMapError> {
+        image::ImageReader::open(path)
+            .map_err(EnvMapError::Open)?
+            .with_guessed_format()
+            .map_err(EnvMapError::Read)
+    };
+    let reader = open()?;
     if reader.format() != Some(image::ImageFormat::Hdr) {
-        return Err("not a Radiance HDR file".to_owned());
+        return Err(EnvMapError::NotHdr);
     }
-    let (w, h) = reader
-        .into_dimensions()
-        .map_err(|e| format!("cannot read Radiance HDR header: {e}"))?;
+    let (w, h) = reader.into_dimensions().map_err(EnvMapError::HdrHeader)?;
     if w as usize > MAX_ENV_SIDE || h as usize > MAX_ENV_SIDE {
-        return Err(format!(
-            "{w}x{h} is larger than the supported {MAX_ENV_SIDE}x{MAX_ENV_SIDE}"
-        ));
+        return Err(EnvMapError::TooLarge {
+            width: w as usize,
+            height: h as usize,
+        });
     }
-    let img = image::ImageReader::open(path)
-        .map_err(|e| format!("cannot open: {e}"))?
-        .with_guessed_format()
-        .map_err(|e| format!("cannot read: {e}"))?
+    let img = open()?
         .decode()
-        .map_err(|e| format!("cannot decode Radiance HDR: {e}"))?
+        .map_err(EnvMapError::HdrDecode)?
         .to_rgb32f();
     let (w, h) = (img.width() as usize, img.height() as usize);
     let texels = img
@@ -124,42 +149,4 @@ fn read_hdr(path: &Path) -> Result<Pixels, String> {
         .map(|p| Vec3::new(p.0[0], p.0[1], p.0[2]))
         .collect();
     Ok((w, h, texels))
-}
-
-/// The unit direction a lat-long texel centre looks at (the convention of
-/// [`Environment::LatLong`]): theta = pi v from +Y, phi = 2 pi (u - 0.5), direction
-/// (sin theta sin phi, cos theta, -sin theta cos phi). The map's centre column looks down -Z.
-pub fn latlong_direction(u: f32, v: f32) -> Vec3 {
-    let theta = std::f32::consts::PI * v;
-    let phi = 2.0 * std::f32::consts::PI * (u - 0.5);
-    let (st, ct) = theta.sin_cos();
-    let (sp, cp) = phi.sin_cos();
-    Vec3::new(st * sp, ct, -st * cp)
-}
-
-/// The inverse of [`latlong_direction`]: (u, v) in [0,1]^2 for a unit direction.
-pub fn latlong_uv(dir: Vec3) -> (f32, f32) {
-    let theta = dir.y.clamp(-1.0, 1.0).acos();
-    let phi = dir.x.atan2(-dir.z);
-    let u = phi / (2.0 * std::f32::consts::PI) + 0.5;
-    (u, theta / std::f32::consts::PI)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn latlong_mapping_roundtrips_and_matches_the_documented_axes() {
-        assert!(latlong_direction(0.5, 0.0).abs_diff_eq(Vec3::Y, 1e-6));
-        assert!(latlong_direction(0.5, 0.5).abs_diff_eq(Vec3::NEG_Z, 1e-6));
-        assert!(latlong_direction(0.75, 0.5).abs_diff_eq(Vec3::X, 1e-6));
-        for &(u, v) in &[(0.1, 0.3), (0.6, 0.8), (0.9, 0.5)] {
-            let (u2, v2) = latlong_uv(latlong_direction(u, v));
-            assert!(
-                (u - u2).abs() < 1e-5 && (v - v2).abs() < 1e-5,
-                "{u} {v} -> {u2} {v2}"
-            );
-        }
-    }
 }

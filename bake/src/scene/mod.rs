@@ -1,6 +1,6 @@
 //! The in-memory scene every part of the baker works on: world-space triangles grouped by
 //! material ("objects" in the thesis' sense: one editable BRDF per material), lights, camera,
-//! environment. Produced by [`load`] from a glTF file plus the bake config.
+//! environment. Produced by [`load`] from a glTF file plus the bake config ([`gltf`]).
 //!
 //! Conventions (see docs/conventions.md): right-handed, +Y up, metres; linear RGB radiance;
 //! glTF punctual light intensities are taken as radiometric (1 cd == 1 W/sr per channel unit).
@@ -10,9 +10,16 @@ use glam::{Vec2, Vec3};
 use crate::brdf::BrdfParams;
 
 pub mod envmap;
-mod gltf_io;
-pub mod load;
-pub use load::{load, load_with_warnings, SceneError};
+pub mod error;
+pub mod gltf;
+
+pub use error::SceneError;
+pub use gltf::camera::framing_camera;
+pub use gltf::material::{
+    alpha_to_shininess, resolve_brdf, BrdfConfigError, GltfPbr, DEFAULT_KS, DEFAULT_MATERIAL_NAME,
+};
+pub use gltf::texture::srgb_to_linear;
+pub use gltf::{load, load_with_warnings};
 
 /// A linear-RGB texture (sRGB-encoded glTF base-colour/emissive textures are decoded on load).
 #[derive(Clone, Debug)]
@@ -107,9 +114,9 @@ pub struct Camera {
 pub enum Environment {
     /// Constant radiance from every direction (black = no environment).
     Constant(Vec3),
-    /// Equirectangular (lat-long) radiance map, already multiplied by the config's intensity.
-    /// Row 0 is +Y (up); column u in [0,1) maps to phi = 2*pi*(u - 0.5) with direction
-    /// (sin(theta) sin(phi), cos(theta), -sin(theta) cos(phi)), theta = pi * v.
+    /// Equirectangular (lat-long) radiance map, already multiplied by the config's intensity,
+    /// row-major, top row first, in the convention of [`prt_formats::latlong`]: row 0 looks
+    /// up (+Y), the centre column down -Z, u = 0.75 along +X.
     LatLong {
         width: u32,
         height: u32,

@@ -1,6 +1,8 @@
 //! `bake`: the offline baker.
 //!
 //!     bake scenes/cornell/bake.toml            bake the config (writes its output file)
+//!     bake scenes/cornell                      the same: a folder means its bake.toml
+//!     bake model.glb [--print-config]          bake a glTF with defaults (or print them)
 //!     bake basis --family blinn-phong ...      BRDF basis error tables and report
 //!     bake bench rays                          ray throughput on a ~100K-triangle scene
 //!     bake bench pixel                         the per-pixel speed-vs-error report
@@ -11,7 +13,8 @@ use std::process::ExitCode;
 use anyhow::{bail, Result};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use prt_bake::pixel::Precision;
-use prt_bake::run::{human_bytes, load, run_pixel, PixelRunSettings};
+use prt_bake::progress::Progress;
+use prt_bake::run::{human_bytes, load, load_scene, run_pixel, PixelRunSettings};
 use prt_cli::{parse_size, Stderr};
 
 #[derive(Parser, Debug)]
@@ -83,8 +86,12 @@ enum PrecisionArg {
 
 #[derive(Args, Debug)]
 struct BakeArgs {
-    /// The bake config (TOML) to bake.
-    config: Option<PathBuf>,
+    /// What to bake: a bake config (.toml), a scene folder holding bake.toml, or a glTF scene
+    /// (.gltf/.glb) baked with defaults (docs/config.md).
+    input: Option<PathBuf>,
+    /// Print the config (TOML) that INPUT resolves to on stdout and exit without baking.
+    #[arg(long)]
+    print_config: bool,
     /// Samples per pixel (default: the config's).
     #[arg(long)]
     spp: Option<u32>,
@@ -142,17 +149,34 @@ fn run(cli: Cli) -> Result<()> {
             quiet,
         })) => bench_pixel(configs, out, img_dir, work_dir, quick, quiet),
         None => {
-            let Some(config) = cli.bake.config.clone() else {
-                bail!("give a bake config, e.g. `bake scenes/cornell/bake.toml` (see --help)");
+            let Some(input) = cli.bake.input.clone() else {
+                bail!(
+                    "give a bake config, a scene folder or a glTF scene, e.g. \
+                     `bake scenes/cornell` (see --help)"
+                );
             };
-            bake(&config, &cli.bake)
+            bake(&input, &cli.bake)
         }
     }
 }
 
-fn bake(config_path: &std::path::Path, a: &BakeArgs) -> Result<()> {
+fn bake(input: &std::path::Path, a: &BakeArgs) -> Result<()> {
+    use prt_bake::config::input::{self, InputKind};
+    let resolved = input::resolve(input)?;
+    if a.print_config {
+        print!("{}", resolved.config.to_toml());
+        return Ok(());
+    }
     let progress = Stderr::new(a.quiet || a.json);
-    let (config, scene) = load(config_path, &progress)?;
+    if resolved.kind == InputKind::Gltf {
+        progress.note(&format!(
+            "{}: baking with this config (save it with --print-config):\n{}",
+            input.display(),
+            resolved.config.to_toml()
+        ));
+    }
+    let config = resolved.config;
+    let scene = load_scene(&config, &progress)?;
     let settings = PixelRunSettings {
         spp: a.spp,
         width: a.width,

@@ -5,6 +5,9 @@
 //! column), then [`BakeConfig::parse`] validates every value and resolves relative paths against
 //! the config's folder. Checks that need the glTF (material names, family parameters the glTF
 //! must supply) happen later, in [`crate::scene::load`].
+//!
+//! [`input`] turns what a user names on the command line (a config, a scene folder, or a bare
+//! glTF) into a config; [`BakeConfig::to_toml`] writes a config back as TOML.
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -15,12 +18,16 @@ use serde::Deserialize;
 
 use crate::brdf::{Family, ALPHA_RANGE, SHININESS_RANGE};
 
+pub mod input;
+mod write;
+
 /// Largest accepted image side in pixels; anything larger is almost certainly a typo.
 pub const MAX_IMAGE_SIDE: u32 = 16384;
 /// Largest accepted samples per pixel (or per vertex).
 pub const MAX_SPP: u32 = 1 << 20;
-/// Largest accepted number of reflections per path.
-pub const MAX_REFLECTIONS: u32 = 64;
+/// Largest accepted number of reflections per path: what the integrator supports (one limit,
+/// so a config can never ask for more than is rendered).
+pub const MAX_REFLECTIONS: u32 = crate::integrator::MAX_REFLECTIONS as u32;
 /// Largest accepted `[basis] count`.
 pub const MAX_BASIS_COUNT: u32 = 1024;
 
@@ -54,8 +61,8 @@ pub struct MaterialConfig {
     pub alpha: Option<f32>,
 }
 
-/// The `[basis]` table: how the editable BRDFs are projected (DESIGN.md 2.2). Every key is
-/// optional; the baker picks defaults.
+/// The `[basis]` table: how the editable BRDFs are projected (docs/brdf-basis.md). Every key
+/// is optional; the baker picks defaults.
 #[derive(Clone, Debug, PartialEq, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BasisConfig {
@@ -65,7 +72,21 @@ pub struct BasisConfig {
     pub error_target: Option<f32>,
 }
 
-#[derive(Clone, Debug)]
+/// The `[camera]` table: a pinhole camera replacing the glTF's (docs/config.md).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraConfig {
+    /// The eye, world space.
+    pub position: Vec3,
+    /// The point looked at; the image's up is as close to +Y as the view allows.
+    pub target: Vec3,
+    /// Vertical field of view, radians, in (0, pi).
+    pub yfov: f32,
+}
+
+/// `[camera]`'s default `yfov`: 45 degrees.
+pub const DEFAULT_YFOV: f32 = std::f32::consts::FRAC_PI_4;
+
+#[derive(Clone, Debug, PartialEq)]
 pub struct BakeConfig {
     /// The config file itself (relative paths inside it resolve against its folder).
     pub config_path: PathBuf,
@@ -85,6 +106,8 @@ pub struct BakeConfig {
     pub materials: Vec<(String, MaterialConfig)>,
     /// The optional `[basis]` table.
     pub basis: Option<BasisConfig>,
+    /// The optional `[camera]` table; without it the glTF's first perspective camera is used.
+    pub camera: Option<CameraConfig>,
 }
 
 /// Why a config could not be read. Every message names the config file, and the key where one
@@ -163,6 +186,7 @@ impl BakeConfig {
             environment: EnvironmentConfig::Color(Vec3::ZERO),
             materials: Vec::new(),
             basis: None,
+            camera: None,
         }
     }
 
@@ -223,6 +247,15 @@ struct RawConfig {
     #[serde(default)]
     materials: OrderedTables<RawMaterial>,
     basis: Option<BasisConfig>,
+    camera: Option<RawCamera>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCamera {
+    position: [f32; 3],
+    target: [f32; 3],
+    yfov: Option<f32>,
 }
 
 #[derive(Deserialize)]
@@ -459,6 +492,11 @@ impl RawConfig {
             }
         }
 
+        let camera = self
+            .camera
+            .map(|cam| validate_camera(&c, cam))
+            .transpose()?;
+
         Ok(BakeConfig {
             config_path: config_path.clone(),
             scene_path,
@@ -472,8 +510,39 @@ impl RawConfig {
             environment,
             materials,
             basis: self.basis,
+            camera,
         })
     }
+}
+
+fn validate_camera(c: &Checker, cam: RawCamera) -> Result<CameraConfig, ConfigError> {
+    let position = Vec3::from_array(cam.position);
+    let target = Vec3::from_array(cam.target);
+    if !position.is_finite() {
+        return Err(c.err("camera.position", format!("{position:?} is not finite")));
+    }
+    if !target.is_finite() {
+        return Err(c.err("camera.target", format!("{target:?} is not finite")));
+    }
+    let forward = (target - position).normalize_or_zero();
+    if forward == Vec3::ZERO {
+        return Err(c.err("camera.target", "must differ from `camera.position`"));
+    }
+    if forward.cross(Vec3::Y).normalize_or_zero() == Vec3::ZERO {
+        return Err(c.err(
+            "camera.target",
+            "the camera looks straight up or down; +Y must not be the view direction",
+        ));
+    }
+    let yfov = cam.yfov.unwrap_or(DEFAULT_YFOV);
+    if !(yfov.is_finite() && yfov > 0.0 && yfov < std::f32::consts::PI) {
+        return Err(c.err("camera.yfov", format!("{yfov} must be in (0, pi) radians")));
+    }
+    Ok(CameraConfig {
+        position,
+        target,
+        yfov,
+    })
 }
 
 fn validate_material(
