@@ -17,7 +17,6 @@ pub mod family;
 pub mod image_io;
 pub mod latlong;
 pub mod overrides;
-#[allow(missing_docs)] // documented by the per-pixel schema work
 pub mod pixel;
 
 pub use container::{

@@ -14,7 +14,7 @@
 //!
 //! Slots of all materials are numbered globally (`MaterialMeta::slot_offset`). For each
 //! material R0 seen by the camera there is a *group*: its pixels and, per pixel, the tensors
-//! T0[b0], T1[b0, j1], T2[b0, j1, j2] over R0's slots b0 and the group's *active* global slots
+//! T0\[b0\], T1\[b0, j1\], T2\[b0, j1, j2\] over R0's slots b0 and the group's *active* global slots
 //! j (slots that ever carry light into the group), each with `channels` values (1 = gray).
 //! The radiance of a pixel is `emission + sum_g sum_e W_g[e] x_g[e]` where `x_g` is the
 //! pixel's flattened tensor and `W_g` the products of coefficients ([`group_weights`]).
@@ -27,28 +27,38 @@ use crate::family::Family;
 /// Version of the per-pixel schema (inside the container's own schema version).
 pub const PIXEL_SCHEMA_VERSION: u32 = 1;
 
+/// One function a material's BRDF is a combination of (see the module doc).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case", tag = "kind", content = "index")]
 pub enum SlotKind {
+    /// The Lambert lobe 1/pi; coefficient Kd.
     Kd,
+    /// Basis BRDF `b` of the material's family; coefficient Ks a_b(param) (plus Kd for b = 0
+    /// when the material has no Kd slot).
     Basis(u32),
+    /// The fixed specular lobe of a non-editable glossy material; coefficient Ks.
     Lobe,
 }
 
 /// One material of the scene as the bake file records it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct MaterialMeta {
+    /// The material's name (from the glTF), as `--set` addresses it.
     pub name: String,
+    /// Whether relighting may change its parameters.
     pub editable: bool,
     /// The material's BRDF family (stored by name: "diffuse", "blinn-phong" or "ggx").
     pub family: Family,
     /// The parameters the scene was baked with (the starting values of editable materials;
     /// the fixed values of the others).
     pub kd: [f32; 3],
+    /// Specular albedo, linear RGB.
     pub ks: [f32; 3],
+    /// The lobe parameter: shininess s (Blinn-Phong) or alpha (GGX); unused for diffuse.
     pub param: f32,
     /// Whether a base-colour texture modulates Kd.
     pub textured: bool,
+    /// The functions the material's BRDF is a combination of, in slot order.
     pub slots: Vec<SlotKind>,
     /// Global index of this material's first slot.
     pub slot_offset: u32,
@@ -67,6 +77,7 @@ pub struct BasisMeta {
 /// The pixels of the image where material `material` is visible, and their tensors.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct GroupMeta {
+    /// Index of the material into [`PixelBakeMeta::materials`].
     pub material: u32,
     /// Number of pixels in the group (rows of its tensors).
     pub pixels: u32,
@@ -87,11 +98,17 @@ pub struct GroupMeta {
 /// Everything the runtime needs besides the tensors.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PixelBakeMeta {
+    /// [`PIXEL_SCHEMA_VERSION`] of the writer; readers reject other versions.
     pub pixel_schema_version: u32,
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
+    /// Samples per pixel the tensors were estimated with.
     pub spp: u32,
+    /// Reflections per path: 2 stores T0 and T1, 3 adds T2.
     pub reflections: u32,
+    /// The seed of the random streams.
     pub seed: u64,
     /// 1 (gray tensors, colours all in coefficients) or 3 (RGB tensors).
     pub channels: u32,
@@ -100,9 +117,13 @@ pub struct PixelBakeMeta {
     pub tint: [f32; 3],
     /// The storage type of the transfer tensors (stored as "f32" or "f16").
     pub precision: Precision,
+    /// Every material of the scene, in scene order (slots numbered globally across them).
     pub materials: Vec<MaterialMeta>,
+    /// The bases of the editable glossy families ([`MaterialMeta::basis`] indexes them).
     pub bases: Vec<BasisMeta>,
+    /// One group per material seen by the camera.
     pub groups: Vec<GroupMeta>,
+    /// The camera the image was baked for.
     pub camera: CameraMeta,
     /// Figures of the bake that depend only on its inputs (never timings, so the same inputs
     /// give a byte-identical file).
@@ -177,23 +198,32 @@ pub mod names {
     }
 }
 
+/// The camera of a per-pixel bake (pinhole, world space).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CameraMeta {
+    /// Eye position, world space.
     pub position: [f32; 3],
+    /// Unit viewing direction.
     pub forward: [f32; 3],
+    /// Unit up vector, orthogonal to `forward`.
     pub up: [f32; 3],
+    /// Vertical field of view, radians.
     pub yfov: f32,
 }
 
 /// The parameters of one material as the user sets them.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MaterialParams {
+    /// Diffuse albedo, linear RGB.
     pub kd: [f32; 3],
+    /// Specular albedo, linear RGB.
     pub ks: [f32; 3],
+    /// Shininess s or alpha (by the material's family).
     pub param: f32,
 }
 
 impl MaterialMeta {
+    /// The parameters the material was baked with.
     pub fn params(&self) -> MaterialParams {
         MaterialParams {
             kd: self.kd,
@@ -329,6 +359,7 @@ pub fn element_index(
 }
 
 impl PixelBakeMeta {
+    /// The metadata as the JSON the file's `__metadata__` stores.
     pub fn to_json(&self) -> serde_json::Value {
         serde_json::to_value(self).unwrap_or(serde_json::Value::Null)
     }

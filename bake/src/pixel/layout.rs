@@ -9,7 +9,7 @@ use prt_formats::Family;
 use crate::integrator::MAX_SLOTS;
 use crate::scene::{Environment, PunctualLight, Scene};
 
-use super::PixelError;
+use super::error::PixelError;
 
 /// Which slots each material has, where they sit globally, and the bases they use.
 #[derive(Clone, Debug)]

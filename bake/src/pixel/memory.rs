@@ -6,7 +6,7 @@ use rayon::prelude::*;
 
 use crate::integrator::Integrator;
 
-use super::SlotLayout;
+use super::layout::SlotLayout;
 
 /// Working-memory estimate of the bake: the dense rows of every (pixel, visible material).
 pub struct MemoryEstimate {

@@ -12,7 +12,7 @@ use crate::integrator::{MaterialModel, Slots, Surface, MAX_SLOTS};
 use crate::sampling::Rng;
 use crate::scene::Scene;
 
-use super::SlotLayout;
+use super::layout::SlotLayout;
 
 /// Lobe parameters the sampling mixture of an editable family uses besides the material's
 /// starting value: the sharpest lobe of the basis range and one in the middle, so that any

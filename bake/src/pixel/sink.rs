@@ -6,7 +6,7 @@ use prt_formats::pixel::row_len;
 
 use crate::integrator::{PathSink, Slots, Surface};
 
-use super::SlotLayout;
+use super::layout::SlotLayout;
 
 /// Accumulates one pixel's tensors, one dense row per visible material, over all slots J.
 pub(super) struct TensorSink<'a> {

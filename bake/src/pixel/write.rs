@@ -5,7 +5,8 @@ use half::f16;
 use prt_formats::pixel::{names, Precision};
 use prt_formats::{BakeWriter, FormatError};
 
-use super::{PixelBake, PixelError};
+use super::bake::PixelBake;
+use super::error::PixelError;
 
 /// Converts tensor values to f16 with a per-tensor scale so values beyond f16's range (sun-like
 /// lights) survive: stored = value / scale, scale chosen so the largest magnitude maps to
@@ -42,6 +43,9 @@ pub fn write_bake_file(
     precision: Precision,
 ) -> Result<u64, PixelError> {
     let mut meta = bake.meta.clone();
+    // The metadata must say how this file stores its tensors, whatever the bake was made for
+    // (the runtime checks the two agree).
+    meta.precision = precision;
     // The file stores each group element-major ([row_len, pixels], pixels fastest) so the
     // runtime streams contiguous columns vectorised across pixels. Convert first: the writer
     // borrows the buffers.
@@ -75,7 +79,7 @@ pub fn write_bake_file(
     let mut w = BakeWriter::new();
     let err = |source: FormatError| PixelError::Write {
         path: path.to_path_buf(),
-        source,
+        source: Box::new(source),
     };
     let (wd, ht) = (meta.width as usize, meta.height as usize);
     w.add_f32(names::EMISSION, &[ht, wd, 3], &bake.emission)
