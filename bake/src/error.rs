@@ -41,7 +41,7 @@ pub enum BakeError {
     #[error("the basis error target must be a positive relative error, e.g. 0.01 (got {0})")]
     BadErrorTarget(f64),
     /// The estimated working memory exceeds the caller's limit.
-    #[error("the bake needs about {} but --max-memory is {}: lower the resolution, the reflections or the basis count", crate::run::human_bytes(*.needed), crate::run::human_bytes(*.limit))]
+    #[error("the bake needs about {} but --max-memory is {}: lower the resolution, the reflections or the basis count", crate::units::human_bytes(*.needed), crate::units::human_bytes(*.limit))]
     MemoryLimit {
         /// Estimated bytes.
         needed: u64,

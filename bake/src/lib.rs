@@ -19,3 +19,4 @@ pub mod run;
 pub mod sampling;
 pub mod scene;
 pub mod testing;
+pub mod units;

@@ -29,8 +29,9 @@ use crate::brdf::Family;
 use crate::config::BakeConfig;
 use crate::pixel::{self, Compressed, PixelBake, PixelBakeOptions, Precision, SlotLayout};
 use crate::plot::{LinePlot, Series};
-use crate::run::{apply_override, human_bytes, load};
+use crate::run::{apply_override, load};
 use crate::scene::Scene;
+use crate::units::human_bytes;
 
 /// The command that regenerates `docs/report-pixel.md` (run from the repository root).
 pub const REGENERATE: &str = "cargo run --release --bin bake -- bench pixel";

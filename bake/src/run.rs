@@ -18,6 +18,7 @@ use crate::lights::LightSet;
 use crate::pixel::{self, BakeTimings, PixelBakeOptions, Precision, SlotLayout};
 use crate::progress::Progress;
 use crate::scene::Scene;
+use crate::units::human_bytes;
 
 /// Loads the config and its scene, with errors that name the file; the loader's warnings
 /// (skipped primitives, ignored glTF features) go to `progress`.
@@ -240,20 +241,6 @@ pub fn run_pixel(
         timings: bake.timings,
         stats: bake.meta.stats.clone(),
     })
-}
-
-/// `bytes` for people: `12.4 MB`, `1.20 GB` (decimal units).
-pub fn human_bytes(b: u64) -> String {
-    let b = b as f64;
-    if b >= 1e9 {
-        format!("{:.2} GB", b / 1e9)
-    } else if b >= 1e6 {
-        format!("{:.1} MB", b / 1e6)
-    } else if b >= 1e3 {
-        format!("{:.1} kB", b / 1e3)
-    } else {
-        format!("{b} B")
-    }
 }
 
 /// Applies a `--set MATERIAL.PARAM=VALUE` edit to the scene's true BRDFs (for the reference

@@ -14,7 +14,58 @@ use std::str::FromStr;
 
 use serde::{Deserialize, Serialize};
 
-use crate::overrides::Param;
+/// A material parameter that can be overridden. New parameters are added here (with their
+/// name in [`Param::name`] and a variant in `overrides::OverrideValue`); the error messages list the
+/// valid names from [`Param::ALL`] automatically.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum Param {
+    /// `kd`: diffuse albedo (RGB).
+    Kd,
+    /// `ks`: specular albedo (RGB).
+    Ks,
+    /// `shininess`: the Blinn-Phong exponent.
+    Shininess,
+    /// `alpha`: the GGX roughness.
+    Alpha,
+}
+
+impl Param {
+    /// Every parameter, in the order error messages list them.
+    pub const ALL: &'static [Param] = &[Param::Kd, Param::Ks, Param::Shininess, Param::Alpha];
+
+    /// The name used on the command line.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Param::Kd => "kd",
+            Param::Ks => "ks",
+            Param::Shininess => "shininess",
+            Param::Alpha => "alpha",
+        }
+    }
+
+    /// Parses a parameter name (ASCII case-insensitive, so `Kd` works too).
+    pub fn from_name(name: &str) -> Option<Param> {
+        Param::ALL
+            .iter()
+            .copied()
+            .find(|p| p.name().eq_ignore_ascii_case(name))
+    }
+
+    pub(crate) fn valid_names() -> String {
+        Param::ALL
+            .iter()
+            .map(|p| p.name())
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}
+
+impl fmt::Display for Param {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
 
 /// A BRDF family. Every family is `Kd / pi` plus `Ks` times the family's specular lobe.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]

@@ -23,58 +23,7 @@ pub const ALPHA_MIN: f32 = crate::family::ALPHA_RANGE.0;
 /// Largest accepted GGX roughness.
 pub const ALPHA_MAX: f32 = crate::family::ALPHA_RANGE.1;
 
-/// A material parameter that can be overridden. New parameters are added here (with their
-/// name in [`Param::name`] and a variant in [`OverrideValue`]); the error messages list the
-/// valid names from [`Param::ALL`] automatically.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-#[non_exhaustive]
-pub enum Param {
-    /// `kd`: diffuse albedo (RGB).
-    Kd,
-    /// `ks`: specular albedo (RGB).
-    Ks,
-    /// `shininess`: the Blinn-Phong exponent.
-    Shininess,
-    /// `alpha`: the GGX roughness.
-    Alpha,
-}
-
-impl Param {
-    /// Every parameter, in the order error messages list them.
-    pub const ALL: &'static [Param] = &[Param::Kd, Param::Ks, Param::Shininess, Param::Alpha];
-
-    /// The name used on the command line.
-    pub const fn name(self) -> &'static str {
-        match self {
-            Param::Kd => "kd",
-            Param::Ks => "ks",
-            Param::Shininess => "shininess",
-            Param::Alpha => "alpha",
-        }
-    }
-
-    /// Parses a parameter name (ASCII case-insensitive, so `Kd` works too).
-    pub fn from_name(name: &str) -> Option<Param> {
-        Param::ALL
-            .iter()
-            .copied()
-            .find(|p| p.name().eq_ignore_ascii_case(name))
-    }
-
-    fn valid_names() -> String {
-        Param::ALL
-            .iter()
-            .map(|p| p.name())
-            .collect::<Vec<_>>()
-            .join(", ")
-    }
-}
-
-impl fmt::Display for Param {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
+pub use crate::family::Param;
 
 /// The new value of one parameter.
 #[derive(Debug, Clone, Copy, PartialEq)]

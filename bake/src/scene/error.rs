@@ -3,10 +3,10 @@
 
 use std::path::PathBuf;
 
+use gltf::accessor::DataType;
+use prt_formats::Family;
+
 use super::envmap::EnvMapError;
-use super::gltf::accessors::AccessorError;
-use super::gltf::material::BrdfConfigError;
-use super::gltf::source::{GltfParseError, UriError};
 
 /// Why a scene could not be loaded. Every message names the file at fault and the problem.
 #[derive(Debug, thiserror::Error)]
@@ -164,4 +164,178 @@ pub enum MaterialError {
     /// The config's overrides do not fit the material (see [`super::resolve_brdf`]).
     #[error(transparent)]
     Brdf(#[from] BrdfConfigError),
+}
+
+/// Why an accessor or buffer view cannot be read.
+#[derive(Debug, thiserror::Error)]
+pub enum AccessorError {
+    #[error("buffer view {view} refers to missing buffer {buffer}")]
+    MissingBuffer { view: usize, buffer: usize },
+    #[error("buffer view {view}: offset + length overflows")]
+    ViewOverflow { view: usize },
+    #[error(
+        "buffer view {view} (bytes {start}..{end}) runs past the end of buffer {buffer} \
+         ({len} bytes)"
+    )]
+    ViewPastEnd {
+        view: usize,
+        start: usize,
+        end: usize,
+        buffer: usize,
+        len: usize,
+    },
+    /// The accessor's type (SCALAR, VEC2, ...) is not the one the attribute needs.
+    #[error("{what} accessor {accessor} has type {found}, expected {expected}")]
+    WrongType {
+        what: &'static str,
+        accessor: usize,
+        found: &'static str,
+        expected: String,
+    },
+    #[error(
+        "{what} accessor {accessor} has component type {component:?}{}, which is not \
+         supported here",
+        if *normalized { " (normalized)" } else { "" }
+    )]
+    UnsupportedComponent {
+        what: &'static str,
+        accessor: usize,
+        component: DataType,
+        normalized: bool,
+    },
+    #[error(
+        "index accessor {accessor} has component type {component:?}; indices must be unsigned \
+         bytes, shorts or ints"
+    )]
+    IndexComponent {
+        accessor: usize,
+        component: DataType,
+    },
+    #[error("size overflows")]
+    SizeOverflow,
+    #[error("{count} elements need {needed} bytes but its buffer view has {len}")]
+    TooShort {
+        count: usize,
+        needed: usize,
+        len: usize,
+    },
+    #[error("byteStride {stride} is smaller than the element size {element}")]
+    StrideTooSmall { stride: usize, element: usize },
+    #[error("{0} elements without a buffer view is implausibly large")]
+    TooManyVirtual(usize),
+    #[error("sparse index {index} is out of range (count {count})")]
+    SparseIndexOutOfRange { index: usize, count: usize },
+    /// One of the above, in a named part of an accessor (e.g. "POSITION accessor 3 sparse
+    /// indices").
+    #[error("{context}: {source}")]
+    In {
+        context: String,
+        #[source]
+        source: Box<AccessorError>,
+    },
+}
+
+/// Why a material's config overrides do not fit it (see [`resolve_brdf`]).
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum BrdfConfigError {
+    /// A parameter the resolved family does not use.
+    #[error(
+        "`{key}` does not apply to family \"{}\"{}; set `family` to one that uses it",
+        family.name(),
+        if *family_from_gltf {
+            format!(" (the glTF material maps to {})", family.name())
+        } else {
+            String::new()
+        }
+    )]
+    StrayParameter {
+        key: &'static str,
+        family: Family,
+        /// The family is the glTF mapping's (the config gave none).
+        family_from_gltf: bool,
+    },
+    /// An editable specular family whose glTF material supplies no specular lobe, without the
+    /// config keys (`missing`: "ks", "alpha" or "shininess") that would give it one.
+    #[error(
+        "editable family \"{}\" needs {} in the config: {} and supplies no specular lobe",
+        family.name(),
+        missing.iter().map(|k| format!("`{k}`")).collect::<Vec<_>>().join(" and "),
+        if *default_material {
+            "the default material is plain diffuse"
+        } else {
+            "the glTF material is a fully rough dielectric (it maps to diffuse)"
+        }
+    )]
+    MissingSpecular {
+        family: Family,
+        missing: Vec<&'static str>,
+        /// The material is the `default` one (primitives without a material).
+        default_material: bool,
+    },
+}
+
+/// Why a `.gltf`/`.glb` byte string is not a usable glTF document.
+#[derive(Debug, thiserror::Error)]
+pub enum GltfParseError {
+    #[error("the file is empty")]
+    Empty,
+    /// Fewer bytes than a GLB header plus one chunk header.
+    #[error("truncated GLB: {len} bytes, a GLB needs at least a 12-byte header and a chunk")]
+    TooShort { len: usize },
+    #[error("corrupt GLB header: declared length {declared} < 20")]
+    BadLength { declared: usize },
+    #[error("truncated GLB: the header declares {declared} bytes but the file has {len}")]
+    Truncated { declared: usize, len: usize },
+    /// Schema validation failed; the first few problems, as `path: problem`.
+    #[error("invalid glTF: {}{}", problems.join("; "), more_label(*more))]
+    Invalid {
+        problems: Vec<String>,
+        /// How many further problems were left out.
+        more: usize,
+    },
+    #[error("malformed glTF JSON: {0}")]
+    Json(#[source] gltf::json::Error),
+    /// Any other error of the glTF crate (bad GLB chunk, ...).
+    #[error("{0}")]
+    Other(#[source] gltf::Error),
+    /// The glTF crate panicked on this input.
+    #[error("the glTF parser failed on this input (malformed file)")]
+    ParserPanicked,
+}
+
+/// Why a buffer or image URI cannot be resolved.
+#[derive(Debug, thiserror::Error)]
+pub enum UriError {
+    #[error("malformed data URI (no ',')")]
+    MalformedData,
+    #[error("only base64 data URIs are supported")]
+    NotBase64,
+    #[error(transparent)]
+    Base64(#[from] Base64Error),
+    #[error("URI scheme \"{0}:\" is not supported (only relative paths, file:// and data:)")]
+    UnsupportedScheme(String),
+    #[error("bad percent-encoding in URI \"{0}\"")]
+    BadPercent(String),
+    #[error("URI \"{0}\" is not UTF-8 after decoding")]
+    NotUtf8(String),
+}
+
+/// Why a base64 payload cannot be decoded.
+#[derive(Debug, thiserror::Error, PartialEq, Eq)]
+pub enum Base64Error {
+    #[error("invalid base64: data after '=' padding at byte {0}")]
+    AfterPadding(usize),
+    #[error("invalid base64 character {ch:?} at byte {pos}")]
+    BadCharacter { ch: char, pos: usize },
+    #[error("invalid base64: truncated data")]
+    Truncated,
+}
+
+/// " (and N more)" for lists cut short in messages.
+fn more_label(more: usize) -> String {
+    if more > 0 {
+        format!(" (and {more} more)")
+    } else {
+        String::new()
+    }
 }

@@ -13,10 +13,10 @@ pub mod envmap;
 pub mod error;
 pub mod gltf;
 
-pub use error::SceneError;
+pub use error::{BrdfConfigError, SceneError};
 pub use gltf::camera::framing_camera;
 pub use gltf::material::{
-    alpha_to_shininess, resolve_brdf, BrdfConfigError, GltfPbr, DEFAULT_KS, DEFAULT_MATERIAL_NAME,
+    alpha_to_shininess, resolve_brdf, GltfPbr, DEFAULT_KS, DEFAULT_MATERIAL_NAME,
 };
 pub use gltf::texture::srgb_to_linear;
 pub use gltf::{load, load_with_warnings};

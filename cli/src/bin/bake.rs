@@ -14,7 +14,8 @@ use anyhow::{bail, Result};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use prt_bake::pixel::Precision;
 use prt_bake::progress::Progress;
-use prt_bake::run::{human_bytes, load, load_scene, run_pixel, PixelRunSettings};
+use prt_bake::run::{load, load_scene, run_pixel, PixelRunSettings};
+use prt_bake::units::human_bytes;
 use prt_cli::{parse_size, Stderr};
 
 #[derive(Parser, Debug)]

@@ -8,11 +8,23 @@ use std::path::Path;
 use serde_json::Value;
 
 use super::digest::header_digest;
-use super::read::TensorEntry;
 use super::{
     keys, Dtype, FormatError, Result, FORMAT_NAME, MAX_HEADER_LEN, PAD_PREFIX, RESERVED_PREFIX,
     SCHEMA_VERSION, ST_METADATA,
 };
+
+/// One (non-padding) tensor of an open file, as validated by the parser.
+#[derive(Debug)]
+pub(super) struct TensorEntry {
+    pub(super) name: String,
+    pub(super) dtype: Dtype,
+    pub(super) shape: Vec<usize>,
+    /// Absolute byte range in the file.
+    pub(super) start: usize,
+    pub(super) end: usize,
+    /// The stored CRC-32 of the bytes `start..end`.
+    pub(super) crc: u32,
+}
 
 /// What [`parse`] found in a valid file.
 pub(super) struct Parsed {

@@ -7,21 +7,8 @@ use std::path::{Path, PathBuf};
 use memmap2::Mmap;
 use serde_json::Value;
 
-use super::parse::parse;
+use super::parse::{parse, TensorEntry};
 use super::{Dtype, Element, FormatError, Result};
-
-/// One (non-padding) tensor of an open file, as validated by the parser.
-#[derive(Debug)]
-pub(super) struct TensorEntry {
-    pub(super) name: String,
-    pub(super) dtype: Dtype,
-    pub(super) shape: Vec<usize>,
-    /// Absolute byte range in the file.
-    pub(super) start: usize,
-    pub(super) end: usize,
-    /// The stored CRC-32 of the bytes `start..end`.
-    pub(super) crc: u32,
-}
 
 /// An open bake file: a validated, memory-mapped safetensors container.
 ///

@@ -6,81 +6,13 @@
 //! checked with overflow-checked arithmetic against the bytes actually present, so malformed
 //! input becomes an error and never a panic or a huge allocation.
 
+use crate::scene::error::AccessorError;
 use gltf::accessor::{sparse::IndexType, DataType, Dimensions};
 use gltf::Accessor;
 
 /// Accessors without a buffer view are all zeros; above this many elements we refuse rather
 /// than allocate gigabytes because of one number in a small JSON file.
 const MAX_VIRTUAL_ELEMENTS: usize = 1 << 26;
-
-/// Why an accessor or buffer view cannot be read.
-#[derive(Debug, thiserror::Error)]
-pub enum AccessorError {
-    #[error("buffer view {view} refers to missing buffer {buffer}")]
-    MissingBuffer { view: usize, buffer: usize },
-    #[error("buffer view {view}: offset + length overflows")]
-    ViewOverflow { view: usize },
-    #[error(
-        "buffer view {view} (bytes {start}..{end}) runs past the end of buffer {buffer} \
-         ({len} bytes)"
-    )]
-    ViewPastEnd {
-        view: usize,
-        start: usize,
-        end: usize,
-        buffer: usize,
-        len: usize,
-    },
-    /// The accessor's type (SCALAR, VEC2, ...) is not the one the attribute needs.
-    #[error("{what} accessor {accessor} has type {found}, expected {expected}")]
-    WrongType {
-        what: &'static str,
-        accessor: usize,
-        found: &'static str,
-        expected: String,
-    },
-    #[error(
-        "{what} accessor {accessor} has component type {component:?}{}, which is not \
-         supported here",
-        if *normalized { " (normalized)" } else { "" }
-    )]
-    UnsupportedComponent {
-        what: &'static str,
-        accessor: usize,
-        component: DataType,
-        normalized: bool,
-    },
-    #[error(
-        "index accessor {accessor} has component type {component:?}; indices must be unsigned \
-         bytes, shorts or ints"
-    )]
-    IndexComponent {
-        accessor: usize,
-        component: DataType,
-    },
-    #[error("size overflows")]
-    SizeOverflow,
-    #[error("{count} elements need {needed} bytes but its buffer view has {len}")]
-    TooShort {
-        count: usize,
-        needed: usize,
-        len: usize,
-    },
-    #[error("byteStride {stride} is smaller than the element size {element}")]
-    StrideTooSmall { stride: usize, element: usize },
-    #[error("{0} elements without a buffer view is implausibly large")]
-    TooManyVirtual(usize),
-    #[error("sparse index {index} is out of range (count {count})")]
-    SparseIndexOutOfRange { index: usize, count: usize },
-    /// One of the above, in a named part of an accessor (e.g. "POSITION accessor 3 sparse
-    /// indices").
-    #[error("{context}: {source}")]
-    In {
-        context: String,
-        #[source]
-        source: Box<AccessorError>,
-    },
-}
 
 impl AccessorError {
     fn context(self, context: &str) -> AccessorError {

@@ -9,6 +9,7 @@ use glam::Vec3;
 use super::Loader;
 use crate::brdf::{BrdfParams, Family, ALPHA_RANGE, SHININESS_RANGE};
 use crate::config::MaterialConfig;
+use crate::scene::error::BrdfConfigError;
 use crate::scene::error::MaterialError;
 use crate::scene::{Material, SceneError};
 
@@ -18,45 +19,6 @@ pub const DEFAULT_MATERIAL_NAME: &str = "default";
 /// Ks used when the config switches a material to a specular family and neither it nor the
 /// glTF gives one: glTF's dielectric F0.
 pub const DEFAULT_KS: f32 = 0.04;
-
-/// Why a material's config overrides do not fit it (see [`resolve_brdf`]).
-#[derive(Debug, thiserror::Error, PartialEq)]
-pub enum BrdfConfigError {
-    /// A parameter the resolved family does not use.
-    #[error(
-        "`{key}` does not apply to family \"{}\"{}; set `family` to one that uses it",
-        family.name(),
-        if *family_from_gltf {
-            format!(" (the glTF material maps to {})", family.name())
-        } else {
-            String::new()
-        }
-    )]
-    StrayParameter {
-        key: &'static str,
-        family: Family,
-        /// The family is the glTF mapping's (the config gave none).
-        family_from_gltf: bool,
-    },
-    /// An editable specular family whose glTF material supplies no specular lobe, without the
-    /// config keys (`missing`: "ks", "alpha" or "shininess") that would give it one.
-    #[error(
-        "editable family \"{}\" needs {} in the config: {} and supplies no specular lobe",
-        family.name(),
-        missing.iter().map(|k| format!("`{k}`")).collect::<Vec<_>>().join(" and "),
-        if *default_material {
-            "the default material is plain diffuse"
-        } else {
-            "the glTF material is a fully rough dielectric (it maps to diffuse)"
-        }
-    )]
-    MissingSpecular {
-        family: Family,
-        missing: Vec<&'static str>,
-        /// The material is the `default` one (primitives without a material).
-        default_material: bool,
-    },
-}
 
 impl Loader<'_> {
     /// One [`Material`] per glTF material (plus `default` when a primitive has none), with the

@@ -71,7 +71,7 @@ impl Loader<'_> {
                 primitive: pi,
                 source: Box::new(source),
             };
-            let aerr = |e: accessors::AccessorError| perr(MeshError::Accessor(e));
+            let aerr = |e: crate::scene::error::AccessorError| perr(MeshError::Accessor(e));
             let pos_acc = prim
                 .get(&Semantic::Positions)
                 .ok_or_else(|| perr(MeshError::NoPosition))?;

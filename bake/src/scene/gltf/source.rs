@@ -1,72 +1,8 @@
 //! The glTF container and where its bytes come from: parsing `.gltf` (JSON) and `.glb` files
 //! defensively, and resolving buffer and image URIs (external files, `data:` URIs).
 
+use crate::scene::error::{Base64Error, GltfParseError, UriError};
 use std::path::{Path, PathBuf};
-
-/// Why a `.gltf`/`.glb` byte string is not a usable glTF document.
-#[derive(Debug, thiserror::Error)]
-pub enum GltfParseError {
-    #[error("the file is empty")]
-    Empty,
-    /// Fewer bytes than a GLB header plus one chunk header.
-    #[error("truncated GLB: {len} bytes, a GLB needs at least a 12-byte header and a chunk")]
-    TooShort { len: usize },
-    #[error("corrupt GLB header: declared length {declared} < 20")]
-    BadLength { declared: usize },
-    #[error("truncated GLB: the header declares {declared} bytes but the file has {len}")]
-    Truncated { declared: usize, len: usize },
-    /// Schema validation failed; the first few problems, as `path: problem`.
-    #[error("invalid glTF: {}{}", problems.join("; "), more_label(*more))]
-    Invalid {
-        problems: Vec<String>,
-        /// How many further problems were left out.
-        more: usize,
-    },
-    #[error("malformed glTF JSON: {0}")]
-    Json(#[source] gltf::json::Error),
-    /// Any other error of the glTF crate (bad GLB chunk, ...).
-    #[error("{0}")]
-    Other(#[source] gltf::Error),
-    /// The glTF crate panicked on this input.
-    #[error("the glTF parser failed on this input (malformed file)")]
-    ParserPanicked,
-}
-
-fn more_label(more: usize) -> String {
-    if more > 0 {
-        format!(" (and {more} more)")
-    } else {
-        String::new()
-    }
-}
-
-/// Why a buffer or image URI cannot be resolved.
-#[derive(Debug, thiserror::Error)]
-pub enum UriError {
-    #[error("malformed data URI (no ',')")]
-    MalformedData,
-    #[error("only base64 data URIs are supported")]
-    NotBase64,
-    #[error(transparent)]
-    Base64(#[from] Base64Error),
-    #[error("URI scheme \"{0}:\" is not supported (only relative paths, file:// and data:)")]
-    UnsupportedScheme(String),
-    #[error("bad percent-encoding in URI \"{0}\"")]
-    BadPercent(String),
-    #[error("URI \"{0}\" is not UTF-8 after decoding")]
-    NotUtf8(String),
-}
-
-/// Why a base64 payload cannot be decoded.
-#[derive(Debug, thiserror::Error, PartialEq, Eq)]
-pub enum Base64Error {
-    #[error("invalid base64: data after '=' padding at byte {0}")]
-    AfterPadding(usize),
-    #[error("invalid base64 character {ch:?} at byte {pos}")]
-    BadCharacter { ch: char, pos: usize },
-    #[error("invalid base64: truncated data")]
-    Truncated,
-}
 
 /// Parses a `.gltf` (JSON) or `.glb` byte string and validates it against the glTF schema.
 pub(crate) fn parse(bytes: &[u8]) -> Result<gltf::Gltf, GltfParseError> {
