@@ -1,4 +1,4 @@
-//! BRDF bases for editable materials (DESIGN.md 2.2, thesis 4.1.2 and 5.2.2/5.3.1; the method
+//! BRDF bases for editable materials (docs/brdf-basis.md, thesis 4.1.2 and 5.2.2/5.3.1; the method
 //! and its measurements are in docs/brdf-basis.md).
 //!
 //! - [`build_basis`]: PCA basis of a family (`blinn-phong`, `ggx`), persisted as
