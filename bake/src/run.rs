@@ -72,8 +72,8 @@ fn count_for_target(family: Family, target: f64, verbose: bool) -> Result<usize>
     let cfg = BasisConfig::new(family, MAX_SELECTED_COUNT).map_err(anyhow::Error::msg)?;
     let counts: Vec<usize> = (2..=MAX_SELECTED_COUNT).collect();
     let (report, _) =
-        crate::basis::report::family_report(&cfg, &counts, 2, 64).map_err(anyhow::Error::msg)?;
-    let chosen = crate::basis::report::select_count(&report, target, false);
+        crate::basis::select::family_report(&cfg, &counts, 2, 64).map_err(anyhow::Error::msg)?;
+    let chosen = crate::basis::select::select_count(&report, target, false);
     let nb = chosen.unwrap_or(MAX_SELECTED_COUNT);
     if verbose {
         let err = report

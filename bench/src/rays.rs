@@ -1,15 +1,15 @@
-//! Benchmarks printed by `bake bench ...` (speed is measured here, never asserted in tests).
+//! `bench rays`: closest-hit and occlusion ray throughput, coherent and incoherent, on one
+//! thread and on all threads.
 
 use std::time::Instant;
 
 use glam::Vec3;
+use prt_bake::accel::Accel;
+use prt_bake::brdf::BrdfParams;
+use prt_bake::sampling::{uniform_sphere, Rng};
+use prt_bake::scene::Scene;
+use prt_bake::testing::{look_at, SceneBuilder};
 use rayon::prelude::*;
-
-use crate::accel::Accel;
-use crate::brdf::BrdfParams;
-use crate::sampling::{uniform_sphere, Rng};
-use crate::scene::Scene;
-use crate::testing::{look_at, SceneBuilder};
 
 /// About 100K triangles: five subdivided spheres on a floor, seen by a camera.
 pub fn hundred_k_scene() -> Scene {
@@ -135,4 +135,22 @@ pub fn ray_throughput(scene: &Scene, rays: usize) -> Vec<RayFigures> {
         }
     }
     out
+}
+
+/// Prints the figures as a table.
+pub fn print(scene: &Scene, rays: usize, figures: &[RayFigures]) {
+    println!(
+        "ray throughput, {} triangles, {} rays per measurement",
+        scene.triangles.len(),
+        rays
+    );
+    println!("{:<24} {:>8} {:>14}", "kind", "threads", "Mrays/s");
+    for f in figures {
+        println!(
+            "{:<24} {:>8} {:>14.2}",
+            f.kind,
+            f.threads,
+            f.rays_per_second / 1e6
+        );
+    }
 }

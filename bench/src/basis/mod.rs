@@ -1,16 +1,21 @@
-//! `bake basis ...`: builds a family's PCA basis, prints its error table (text or `--json`),
+//! `bench basis ...`: builds a family's PCA basis, prints its error table (text or `--json`),
 //! optionally writes the basis, runs the Tucker grid, or regenerates docs/brdf-basis.md.
 
-use super::pca::PcaOptions;
-use super::report::{self, FamilyReport};
-use super::tucker::{self, HemiGrid, TuckerReport};
-use super::{BasisConfig, FamilySpec};
-use crate::brdf::Family;
+pub mod continuous;
+pub mod docgen;
+pub mod report;
+
 use anyhow::{anyhow, bail, Context, Result};
+use continuous::ContinuousError;
+use prt_bake::basis::pca::PcaOptions;
+use prt_bake::basis::tucker::{self, HemiGrid, TuckerReport};
+use prt_bake::basis::{BasisConfig, FamilySpec};
+use prt_bake::brdf::Family;
 use prt_formats::basis::{AngularGrid, GridKind, GridSpec};
+use report::FamilyReport;
 use std::path::PathBuf;
 
-/// Arguments of `bake basis`.
+/// Arguments of `bench basis`.
 #[derive(clap::Args, Debug, Clone)]
 pub struct BasisArgs {
     /// BRDF family: blinn-phong or ggx.
@@ -67,7 +72,7 @@ pub struct BasisArgs {
     /// Parameter samples of the Tucker tensor.
     #[arg(long, default_value_t = 32)]
     pub tucker_samples: usize,
-    /// Regenerate the report (markdown, both families, Tucker grids, PNG plots in an `img/`
+    /// Regenerate the report (markdown, both families, Tucker grids, SVG plots in an `img/`
     /// folder beside it), e.g. docs/brdf-basis.md.
     #[arg(long)]
     pub report: Option<PathBuf>,
@@ -116,7 +121,7 @@ fn parse_dirs(s: &str) -> Result<HemiGrid> {
 pub fn config_from_args(args: &BasisArgs) -> Result<BasisConfig> {
     let family = Family::parse(&args.family)
         .ok_or_else(|| anyhow!("unknown family {:?} (blinn-phong or ggx)", args.family))?;
-    let mut cfg = BasisConfig::new(family, args.count).map_err(|e| anyhow!(e))?;
+    let mut cfg = BasisConfig::new(family, args.count)?;
     if let Some(r) = &args.range {
         let v: Vec<f64> = r
             .split(',')
@@ -126,7 +131,7 @@ pub fn config_from_args(args: &BasisArgs) -> Result<BasisConfig> {
         if v.len() != 2 {
             bail!("bad --range {r:?}, expected lo,hi");
         }
-        cfg.spec = cfg.spec.with_range(v[0], v[1]).map_err(|e| anyhow!(e))?;
+        cfg.spec = cfg.spec.with_range(v[0], v[1])?;
     }
     let kind = match args.grid_kind.as_deref() {
         None if args.thesis_method => GridKind::Angles,
@@ -160,15 +165,14 @@ pub fn config_from_args(args: &BasisArgs) -> Result<BasisConfig> {
     Ok(cfg)
 }
 
-/// Entry point of `bake basis`.
+/// Entry point of `bench basis`.
 pub fn run(args: &BasisArgs) -> Result<()> {
     if let Some(path) = &args.report {
-        return super::docgen::write_report(path, args).map(|_| ());
+        return docgen::write_report(path, args).map(|_| ());
     }
     let cfg = config_from_args(args)?;
     let counts: Vec<usize> = (args.min_count..=args.max_count).collect();
-    let (mut rep, mut basis) = report::family_report(&cfg, &counts, args.count, args.eval_samples)
-        .map_err(|e| anyhow!(e))?;
+    let (mut rep, mut basis) = report::family_report(&cfg, &counts, args.count, args.eval_samples)?;
     let mut selected = None;
     if let Some(t) = args.target {
         if t.is_nan() || t <= 0.0 {
@@ -181,8 +185,7 @@ pub fn run(args: &BasisArgs) -> Result<()> {
                     let mut a = args.clone();
                     a.count = nb;
                     let c = config_from_args(&a)?;
-                    let r = report::family_report(&c, &[nb], nb, args.eval_samples)
-                        .map_err(|e| anyhow!(e))?;
+                    let r = report::family_report(&c, &[nb], nb, args.eval_samples)?;
                     basis = r.1;
                     rep.chosen = nb;
                     rep.eval_all_ns = r.0.eval_all_ns;
@@ -252,7 +255,7 @@ pub fn run(args: &BasisArgs) -> Result<()> {
 pub fn sharp_checks(
     spec: &FamilySpec,
     basis: &prt_formats::basis::BrdfBasis,
-) -> Vec<report::ContinuousError> {
+) -> Vec<ContinuousError> {
     let params: Vec<f64> = match spec.family {
         Family::BlinnPhong => vec![1.0, 10.0, 50.0, 100.0, 200.0, 2000.0],
         Family::Ggx => vec![1.0, 0.5, 0.2, 0.1, 0.05, 0.02, 0.01],
@@ -260,7 +263,7 @@ pub fn sharp_checks(
     };
     params
         .into_iter()
-        .map(|p| report::continuous_error(basis, spec.family, p))
+        .map(|p| continuous::continuous_error(basis, spec.family, p))
         .collect()
 }
 
@@ -271,8 +274,13 @@ pub fn run_tucker(spec: &FamilySpec, args: &BasisArgs) -> Result<TuckerReport> {
         bail!("--tucker-samples must be in 2..=512");
     }
     let nd: Vec<usize> = (1..=8).map(|k| 4 * k).collect();
-    tucker::tucker_report(*spec, args.tucker_samples, dirs, &[1, 2, 3, 4, 5, 6], &nd)
-        .map_err(|e| anyhow!(e))
+    Ok(tucker::tucker_report(
+        *spec,
+        args.tucker_samples,
+        dirs,
+        &[1, 2, 3, 4, 5, 6],
+        &nd,
+    )?)
 }
 
 /// Text table of a Tucker report (rows n_h, columns n_o = n_i).
@@ -316,8 +324,7 @@ pub fn family_reports(
         a.range = None;
         let cfg = config_from_args(&a)?;
         let counts: Vec<usize> = (a.min_count..=a.max_count).collect();
-        let (r, b) = report::family_report(&cfg, &counts, a.count, a.eval_samples)
-            .map_err(|e| anyhow!(e))?;
+        let (r, b) = report::family_report(&cfg, &counts, a.count, a.eval_samples)?;
         out.push((r, b, cfg));
     }
     Ok(out)
