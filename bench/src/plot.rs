@@ -72,6 +72,37 @@ fn bounds(v: impl Iterator<Item = f64>, positive: bool) -> Option<(f64, f64)> {
         })
 }
 
+/// A short number for an axis label: plain decimals between 1e-3 and 1e5, else `1e-4` style.
+fn tick_label(v: f64) -> String {
+    let a = v.abs();
+    if v == 0.0 || (1e-3..1e5).contains(&a) {
+        let s = format!("{v:.4}");
+        let s = s.trim_end_matches('0').trim_end_matches('.');
+        s.to_string()
+    } else {
+        let s = format!("{v:.1e}");
+        s.replace(".0e", "e")
+    }
+}
+
+/// Ticks of a log axis over `[lo, hi]`: 1, 2 and 5 times the powers of ten, only the powers
+/// when that gives more than 12.
+fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
+    let (k0, k1) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
+    let pick = |ms: &[f64]| -> Vec<f64> {
+        (k0..=k1)
+            .flat_map(|k| ms.iter().map(move |m| m * 10f64.powi(k)))
+            .filter(|v| *v >= lo && *v <= hi)
+            .collect()
+    };
+    let all = pick(&[1.0, 2.0, 5.0]);
+    if all.len() > 12 {
+        pick(&[1.0])
+    } else {
+        all
+    }
+}
+
 /// Draws the chart of `$plot` on `$root` with the y coordinate `$y` (linear or log range).
 macro_rules! draw_chart {
     ($root:expr, $plot:expr, $x:expr, $y:expr) => {{
@@ -87,8 +118,10 @@ macro_rules! draw_chart {
             .configure_mesh()
             .x_desc(p.x_label.as_str())
             .y_desc(p.y_label.as_str())
-            .y_label_formatter(&|v: &f64| format!("{v:.2e}"))
-            .light_line_style(RGBColor(235, 235, 235))
+            .x_label_formatter(&|v: &f64| tick_label(*v))
+            .y_label_formatter(&|v: &f64| tick_label(*v))
+            .max_light_lines(0)
+            .bold_line_style(RGBColor(230, 230, 230))
             .draw()
             .map_err(|e| anyhow!("{e:?}"))?;
         for (i, s) in p.series.iter().enumerate() {
@@ -101,13 +134,18 @@ macro_rules! draw_chart {
                 .filter(|q| q.0.is_finite() && q.1.is_finite() && (!p.log_y || q.1 > 0.0))
                 .collect();
             let anno = if s.dashed {
-                chart.draw_series(DashedLineSeries::new(pts.clone(), 6, 4, style))
+                chart.draw_series(DashedLineSeries::new(pts.clone(), 10, 6, style))
             } else {
                 chart.draw_series(LineSeries::new(pts.clone(), style))
             }
             .map_err(|e| anyhow!("{e:?}"))?;
+            // a dashed series gets a gap in its legend line
+            let gap = if s.dashed { 4 } else { 0 };
             anno.label(s.name.as_str()).legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 20, y)], RGBColor(r, g, b).stroke_width(2))
+                let c = RGBColor(r, g, b).stroke_width(2);
+                EmptyElement::at((x, y))
+                    + PathElement::new(vec![(0, 0), (8, 0)], c)
+                    + PathElement::new(vec![(8 + gap, 0), (20, 0)], c)
             });
             chart
                 .draw_series(
@@ -174,7 +212,8 @@ impl LinePlot {
             } else {
                 (y0 / 1.3, y1 * 1.3)
             };
-            draw_chart!(&root, self, xr, (y0..y1).log_scale());
+            let ticks = log_ticks(y0, y1);
+            draw_chart!(&root, self, xr, (y0..y1).log_scale().with_key_points(ticks));
         } else {
             let (y0, y1) = if y1 > y0 {
                 (y0, y1)

@@ -177,11 +177,12 @@ pub fn write_report(md_path: &Path, args: &BasisArgs) -> Result<Vec<PathBuf>> {
             summary += "\n";
         }
     }
-    let mut families = String::new();
-    for ((r, basis, cfg), t) in reps.iter().zip(&tuckers) {
-        families += &family_section(r, basis, cfg, t)?;
-        families += "\n";
-    }
+    let families = reps
+        .iter()
+        .zip(&tuckers)
+        .map(|((r, basis, cfg), t)| family_section(r, basis, cfg, t))
+        .collect::<Result<Vec<_>>>()?
+        .join("\n\n");
     let md = render(
         TEMPLATE,
         &[

@@ -47,7 +47,7 @@ pub(crate) fn discussion(r: &Report) -> Result<String> {
         )?);
     }
     parts.push(section(TEXT, "closing")?.to_string());
-    Ok(parts.join("\n") + "\n")
+    Ok(parts.join("\n"))
 }
 
 fn bake_cost(r: &Report) -> Result<Option<String>> {
