@@ -37,6 +37,14 @@ impl Series {
     }
 }
 
+/// Where the legend goes, inside the plot area.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Legend {
+    #[default]
+    UpperRight,
+    MiddleLeft,
+}
+
 /// A line plot.
 #[derive(Clone, Debug)]
 pub struct LinePlot {
@@ -49,6 +57,7 @@ pub struct LinePlot {
     pub height: u32,
     /// Optional fixed y range (data units); `None` fits the data.
     pub y_range: Option<(f64, f64)>,
+    pub legend: Legend,
 }
 
 /// Default palette (colour-blind friendly, Okabe-Ito).
@@ -156,7 +165,10 @@ macro_rules! draw_chart {
         }
         chart
             .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
+            .position(match p.legend {
+                Legend::UpperRight => SeriesLabelPosition::UpperRight,
+                Legend::MiddleLeft => SeriesLabelPosition::MiddleLeft,
+            })
             .background_style(WHITE.mix(0.85))
             .border_style(RGBColor(200, 200, 200))
             .draw()
@@ -179,6 +191,7 @@ impl LinePlot {
             width: 720,
             height: 480,
             y_range: None,
+            legend: Legend::UpperRight,
         }
     }
 

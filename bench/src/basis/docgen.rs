@@ -4,7 +4,7 @@
 use super::continuous::ContinuousError;
 use super::report::{format_table, time_runtime, FamilyReport, NbRow};
 use super::{family_reports, format_tucker, run_tucker, sharp_checks, BasisArgs};
-use crate::plot::{LinePlot, Series};
+use crate::plot::{Legend, LinePlot, Series};
 use crate::template::{render, render_section};
 use anyhow::{Context, Result};
 use prt_bake::basis::tucker::TuckerReport;
@@ -69,6 +69,7 @@ fn tucker_plot(t: &TuckerReport, path: &Path) -> Result<()> {
         "relative error",
     );
     p.log_y = true;
+    p.legend = Legend::MiddleLeft;
     let colors = [[0, 114, 178], [213, 94, 0], [0, 158, 115]];
     for (ci, nh) in [1usize, 3, 6].iter().enumerate() {
         let plain: Vec<(f64, f64)> = t
