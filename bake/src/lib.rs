@@ -4,17 +4,15 @@
 
 pub mod accel;
 pub mod basis;
-pub mod bench;
 pub mod brdf;
 pub mod config;
 pub mod error;
 pub mod integrator;
 pub mod lights;
+pub mod metrics;
 pub mod pixel;
-pub mod plot;
 pub mod progress;
 pub mod reference;
-pub mod report_pixel;
 pub mod run;
 pub mod sampling;
 pub mod scene;

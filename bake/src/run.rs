@@ -67,9 +67,9 @@ fn count_for_target(
     let basis_err = |message: String| BakeError::Basis { family, message };
     let cfg = BasisConfig::new(family, MAX_SELECTED_COUNT).map_err(|e| basis_err(e.to_string()))?;
     let counts: Vec<usize> = (2..=MAX_SELECTED_COUNT).collect();
-    let (report, _) = crate::basis::report::family_report(&cfg, &counts, 2, 64)
+    let (report, _) = crate::basis::select::family_report(&cfg, &counts, 2, 64)
         .map_err(|e| basis_err(e.to_string()))?;
-    let chosen = crate::basis::report::select_count(&report, target, false);
+    let chosen = crate::basis::select::select_count(&report, target, false);
     let nb = chosen.unwrap_or(MAX_SELECTED_COUNT);
     let err = report
         .rows

@@ -183,4 +183,4 @@ pub fn bake_to_file(
 }
 
 /// Relative L2 error ||a - b|| / ||b|| over all channels (the report's definition).
-pub use prt_bake::report_pixel::relative_l2;
+pub use prt_bake::metrics::relative_l2;

@@ -1,6 +1,7 @@
 //! Thin wrappers over faer's f64 decompositions, always run sequentially (`Par::Seq`) so that
 //! results are bit-for-bit identical whatever the thread count, plus a sign convention.
 
+use super::BasisError;
 use faer::diag::Diag;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::evd::{self_adjoint_evd, self_adjoint_evd_scratch, ComputeEigenvectors};
@@ -34,7 +35,7 @@ pub fn clear_simd_upper_state() {
 pub type SvdParts = (Mat<f64>, Vec<f64>, Mat<f64>);
 
 /// Thin SVD `A = U diag(s) V^T` with singular values in nonincreasing order.
-pub fn svd_thin(a: MatRef<'_, f64>) -> Result<SvdParts, String> {
+pub fn svd_thin(a: MatRef<'_, f64>) -> Result<SvdParts, BasisError> {
     let (m, n) = a.shape();
     let k = m.min(n);
     let mut u = Mat::<f64>::zeros(m, k);
@@ -61,7 +62,7 @@ pub fn svd_thin(a: MatRef<'_, f64>) -> Result<SvdParts, String> {
         MemStack::new(&mut buf),
         Default::default(),
     )
-    .map_err(|e| format!("SVD did not converge: {e:?}"));
+    .map_err(|e| BasisError::Svd(format!("{e:?}")));
     clear_simd_upper_state();
     r?;
     let s: Vec<f64> = (0..k).map(|i| s[i]).collect();
@@ -93,7 +94,7 @@ pub fn qr_r(a: MatRef<'_, f64>) -> Mat<f64> {
 
 /// Eigendecomposition of a symmetric matrix; eigenvalues in *nonincreasing* order with the
 /// matching eigenvector columns.
-pub fn sym_eig_desc(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), String> {
+pub fn sym_eig_desc(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), BasisError> {
     let n = a.nrows();
     let mut u = Mat::<f64>::zeros(n, n);
     let mut s = Diag::<f64>::zeros(n);
@@ -111,7 +112,7 @@ pub fn sym_eig_desc(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), String> 
         MemStack::new(&mut buf),
         Default::default(),
     )
-    .map_err(|e| format!("eigendecomposition did not converge: {e:?}"));
+    .map_err(|e| BasisError::Eigen(format!("{e:?}")));
     clear_simd_upper_state();
     r?;
     let vals: Vec<f64> = (0..n).rev().map(|i| s[i]).collect();

@@ -1,20 +1,22 @@
-//! BRDF bases for editable materials (docs/brdf-basis.md, thesis 4.1.2 and 5.2.2/5.3.1; the method
-//! and its measurements are in docs/brdf-basis.md).
+//! BRDF bases for editable materials (thesis 4.1.2 and 5.2.2/5.3.1; the method and its
+//! measurements are in docs/brdf-basis.md).
 //!
 //! - [`build_basis`]: PCA basis of a family (`blinn-phong`, `ggx`), persisted as
 //!   [`prt_formats::basis::BrdfBasis`] (the runtime side lives there).
-//! - [`report`]: error tables for `N_b = 2..12` against the thesis' method.
+//! - [`select`]: the reconstruction error of a family's bases per `N_b`, and the smallest
+//!   `N_b` meeting an error target (what the baker's `error_target` uses). The full error
+//!   tables and the report are in the `prt-bench` crate.
 //! - [`tucker`]: the 3-tensor `F(h, wo, wi)` and its Tucker decomposition with the specular
 //!   split.
-//! - [`cli`]: `bake basis ...`.
 
-pub mod cli;
-pub mod docgen;
+pub mod error;
 pub mod grid;
 pub mod linalg;
 pub mod pca;
-pub mod report;
+pub mod select;
 pub mod tucker;
+
+pub use error::BasisError;
 
 use crate::brdf::Family;
 use faer::Mat;
@@ -36,7 +38,7 @@ pub struct FamilySpec {
 impl FamilySpec {
     /// Defaults: Blinn-Phong s in [1, 200] (thesis), warp ln(s + 1); GGX alpha in [0.02, 1],
     /// warp ln(alpha).
-    pub fn default_for(family: Family) -> Result<FamilySpec, String> {
+    pub fn default_for(family: Family) -> Result<FamilySpec, BasisError> {
         match family {
             Family::BlinnPhong => Ok(FamilySpec {
                 family,
@@ -48,14 +50,14 @@ impl FamilySpec {
                 range: (0.02, 1.0),
                 warp: ParamWarp::Log { offset: 0.0 },
             }),
-            Family::Diffuse => Err("the diffuse family needs no basis: it is basis 0 alone".into()),
+            Family::Diffuse => Err(BasisError::DiffuseFamily),
         }
     }
 
     /// Same family and warp over another range; checks that the range is usable.
-    pub fn with_range(mut self, lo: f64, hi: f64) -> Result<FamilySpec, String> {
+    pub fn with_range(mut self, lo: f64, hi: f64) -> Result<FamilySpec, BasisError> {
         if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-            return Err(format!("invalid parameter range [{lo}, {hi}]"));
+            return Err(BasisError::InvalidRange { lo, hi });
         }
         let min_ok = match self.family {
             Family::BlinnPhong => lo >= 0.0,
@@ -63,10 +65,11 @@ impl FamilySpec {
             Family::Diffuse => false,
         };
         if !min_ok {
-            return Err(format!(
-                "parameter range [{lo}, {hi}] is outside the {} family's domain",
-                self.family.name()
-            ));
+            return Err(BasisError::RangeOutsideDomain {
+                lo,
+                hi,
+                family: self.family.name(),
+            });
         }
         self.range = (lo, hi);
         Ok(self)
@@ -92,7 +95,7 @@ pub struct BasisConfig {
 impl BasisConfig {
     /// Our default configuration for a family: the half/difference grid 96x64x8
     /// ([`GridSpec::DEFAULT`]), 256 parameter samples.
-    pub fn new(family: Family, num_bases: usize) -> Result<BasisConfig, String> {
+    pub fn new(family: Family, num_bases: usize) -> Result<BasisConfig, BasisError> {
         Ok(BasisConfig {
             spec: FamilySpec::default_for(family)?,
             grid: GridSpec::DEFAULT.dims,
@@ -115,13 +118,13 @@ impl BasisConfig {
         self
     }
 
-    fn check(&self) -> Result<(), String> {
-        self.grid.validate().map_err(|e| e.to_string())?;
+    fn check(&self) -> Result<(), BasisError> {
+        self.grid.validate()?;
         if self.num_bases == 0 {
-            return Err("the number of bases must be at least 1".into());
+            return Err(BasisError::NoBases);
         }
         if self.param_samples < 2 {
-            return Err("need at least 2 parameter samples".into());
+            return Err(BasisError::TooFewSamples);
         }
         FamilySpec::with_range(self.spec, self.spec.range.0, self.spec.range.1).map(|_| ())
     }
@@ -162,7 +165,7 @@ pub struct BasisBuilder {
 }
 
 impl BasisBuilder {
-    pub fn new(config: BasisConfig) -> Result<BasisBuilder, String> {
+    pub fn new(config: BasisConfig) -> Result<BasisBuilder, BasisError> {
         config.check()?;
         let params = grid::param_samples(config.spec.range, config.spec.warp, config.param_samples);
         let g = config.grid_spec();
@@ -178,7 +181,7 @@ impl BasisBuilder {
     }
 
     /// Builds the basis with `num_bases` bases (Lambert included).
-    pub fn build(&self, num_bases: usize) -> Result<BuiltBasis, String> {
+    pub fn build(&self, num_bases: usize) -> Result<BuiltBasis, BasisError> {
         let model = self.pca.build(num_bases)?;
         let coeffs: Vec<Vec<f64>> = (0..self.params.len())
             .map(|j| model.project(self.lobes.col_as_slice(j)))
@@ -258,7 +261,7 @@ fn flush_tiny(x: f64) -> f32 {
 }
 
 /// Builds a family's basis (see [`BasisConfig::new`] for the defaults).
-pub fn build_basis(config: BasisConfig) -> Result<BuiltBasis, String> {
+pub fn build_basis(config: BasisConfig) -> Result<BuiltBasis, BasisError> {
     let nb = config.num_bases;
     BasisBuilder::new(config)?.build(nb)
 }

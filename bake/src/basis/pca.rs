@@ -17,6 +17,7 @@
 //! `Par::Seq`, so builds are reproducible bit-for-bit.
 
 use super::linalg::{fix_sign, qr_r, svd_thin};
+use super::BasisError;
 use faer::{Mat, MatRef};
 use prt_formats::basis::GridSpec;
 use serde::{Deserialize, Serialize};
@@ -206,7 +207,7 @@ impl PcaBuilder {
         lobes: MatRef<'_, f64>,
         grid: GridSpec,
         options: PcaOptions,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, BasisError> {
         let p = lobes.ncols();
         Self::with_prior(lobes, grid, options, &vec![1.0; p])
     }
@@ -217,28 +218,28 @@ impl PcaBuilder {
         grid: GridSpec,
         options: PcaOptions,
         prior: &[f64],
-    ) -> Result<Self, String> {
+    ) -> Result<Self, BasisError> {
         let (n, p) = lobes.shape();
         if prior.len() != p || prior.iter().any(|x| !(x.is_finite() && *x >= 0.0)) {
-            return Err("sample prior must hold one finite nonnegative weight per lobe".into());
+            return Err(BasisError::BadPrior);
         }
         let psum: f64 = prior.iter().sum();
         if psum.is_nan() || psum <= 0.0 {
-            return Err("sample prior is all zero".into());
+            return Err(BasisError::ZeroPrior);
         }
         let prior: Vec<f64> = prior.iter().map(|x| x / psum).collect();
         if n != grid.len() {
-            return Err(format!(
-                "lobe tables have {n} rows, grid has {} nodes",
-                grid.len()
-            ));
+            return Err(BasisError::TableSize {
+                rows: n,
+                nodes: grid.len(),
+            });
         }
         if p == 0 {
-            return Err("no lobes to build a basis from".into());
+            return Err(BasisError::NoLobes);
         }
         for j in 0..p {
             if lobes.col(j).iter().any(|v| !v.is_finite()) {
-                return Err(format!("lobe {j} has non-finite values"));
+                return Err(BasisError::NonFiniteLobe(j));
             }
         }
         let w = options.weighting.weights(&grid);
@@ -288,7 +289,7 @@ impl PcaBuilder {
 
     /// Builds a basis of `num_bases` (>= 1) bases including the Lambert one; fewer when the
     /// input's numerical rank is lower.
-    pub fn build(&self, num_bases: usize) -> Result<PcaModel, String> {
+    pub fn build(&self, num_bases: usize) -> Result<PcaModel, BasisError> {
         let kmax = num_bases.saturating_sub(1);
         let p = self.c.ncols();
         let r = self.c.nrows();
@@ -332,7 +333,7 @@ impl PcaBuilder {
                 *z = (*z / zm).clamp(1e-3, 1e3);
             }
         }
-        let (_, _, zeta, build_errors) = best.ok_or("no PCA iteration ran")?;
+        let (_, _, zeta, build_errors) = best.ok_or(BasisError::NoIteration)?;
         let cz = Mat::from_fn(r, p, |i, j| self.c[(i, j)] * zeta[j]);
         let (_, s, v) = svd_thin(cz.as_ref())?;
         let rank = numerical_rank(&s, self.options.rank_rtol);

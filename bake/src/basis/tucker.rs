@@ -11,7 +11,7 @@
 
 use super::grid::lobe_f64;
 use super::linalg::{fix_sign, matmul, matmul_tn, sym_eig_desc};
-use super::FamilySpec;
+use super::{BasisError, FamilySpec};
 use faer::Mat;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -327,7 +327,7 @@ pub struct Tucker {
 
 /// Leading `r` eigenvectors (sign-fixed) of the Gram matrix of the rows of the mode
 /// unfolding given as a `dim x rest` matrix.
-fn leading_left(unfold: &Mat<f64>, r: usize) -> Result<Mat<f64>, String> {
+fn leading_left(unfold: &Mat<f64>, r: usize) -> Result<Mat<f64>, BasisError> {
     let g = matmul(unfold.as_ref(), unfold.transpose());
     let (_, v) = sym_eig_desc(g.as_ref())?;
     let r = r.min(v.ncols());
@@ -405,7 +405,7 @@ pub struct Hosvd {
     pub factors: [Mat<f64>; 3],
 }
 
-pub fn hosvd(x: &[f64], dims: (usize, usize, usize)) -> Result<Hosvd, String> {
+pub fn hosvd(x: &[f64], dims: (usize, usize, usize)) -> Result<Hosvd, BasisError> {
     let f0 = leading_left(&unfold(x, dims, 0), dims.0)?;
     let f1 = leading_left(&unfold(x, dims, 1), dims.1)?;
     let f2 = leading_left(&unfold(x, dims, 2), dims.2)?;
@@ -428,7 +428,7 @@ pub fn tucker(
     ranks: (usize, usize, usize),
     max_sweeps: usize,
     tol: f64,
-) -> Result<Tucker, String> {
+) -> Result<Tucker, BasisError> {
     let norm2: f64 = x.iter().map(|v| v * v).sum();
     let mut u = [
         truncate(&start.factors[0], ranks.0),
@@ -514,7 +514,7 @@ pub fn tucker_report(
     dirs: HemiGrid,
     nh_list: &[usize],
     ndir_list: &[usize],
-) -> Result<TuckerReport, String> {
+) -> Result<TuckerReport, BasisError> {
     let t0 = std::time::Instant::now();
     let params = super::grid::param_samples(spec.range, spec.warp, param_samples);
     let t = BrdfTensor::new(spec, params, dirs);

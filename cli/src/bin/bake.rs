@@ -3,79 +3,28 @@
 //!     bake scenes/cornell/bake.toml            bake the config (writes its output file)
 //!     bake scenes/cornell                      the same: a folder means its bake.toml
 //!     bake model.glb [--print-config]          bake a glTF with defaults (or print them)
-//!     bake basis --family blinn-phong ...      BRDF basis error tables and report
-//!     bake bench rays                          ray throughput on a ~100K-triangle scene
-//!     bake bench pixel                         the per-pixel speed-vs-error report
+//!
+//! Measurements and reports are the `bench` binary's (crate `prt-bench`).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{bail, Result};
-use clap::{Args, Parser, Subcommand, ValueEnum};
+use clap::{Args, Parser, ValueEnum};
 use prt_bake::pixel::Precision;
 use prt_bake::progress::Progress;
-use prt_bake::run::{load, load_scene, run_pixel, PixelRunSettings};
+use prt_bake::run::{load_scene, run_pixel, PixelRunSettings};
 use prt_bake::units::human_bytes;
 use prt_cli::{parse_size, Stderr};
 
 #[derive(Parser, Debug)]
 #[command(
     version,
-    about = "PRT baker: bakes transfer tensors for editable-material relighting",
-    args_conflicts_with_subcommands = true
+    about = "PRT baker: bakes transfer tensors for editable-material relighting"
 )]
 struct Cli {
-    #[command(subcommand)]
-    command: Option<Command>,
     #[command(flatten)]
     bake: BakeArgs,
-}
-
-#[derive(Subcommand, Debug)]
-enum Command {
-    /// BRDF basis: error tables per N_b, timings, automatic N_b selection, the report.
-    Basis(prt_bake::basis::cli::BasisArgs),
-    /// Benchmarks (figures printed, never asserted).
-    #[command(subcommand)]
-    Bench(BenchCommand),
-}
-
-#[derive(Subcommand, Debug)]
-enum BenchCommand {
-    /// Rays per second, coherent and incoherent, one thread and all threads.
-    Rays {
-        /// Rays per measurement.
-        #[arg(long, default_value_t = 2_000_000)]
-        rays: usize,
-        /// Measure on this config's scene instead of the built-in ~100K-triangle scene.
-        #[arg(long)]
-        config: Option<PathBuf>,
-        #[arg(long)]
-        json: bool,
-    },
-    /// The per-pixel speed-vs-error report: bake and relight timings, bandwidth bound, errors
-    /// vs a true-BRDF reference, plots and pictures (docs/report-pixel.md, docs/img/pixel-*).
-    Pixel {
-        /// Bake configs; the first is the main scene (default: cornell, then ring).
-        #[arg(long = "config")]
-        configs: Vec<PathBuf>,
-        /// The markdown report (default: docs/report-pixel.md; with --quick,
-        /// target/report/quick/report-pixel.md).
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// Folder of the PNGs (default: docs/img; with --quick, target/report/quick/img).
-        #[arg(long)]
-        img_dir: Option<PathBuf>,
-        /// Scratch folder for bake files (deleted after use).
-        #[arg(long, default_value = "target/report")]
-        work_dir: PathBuf,
-        /// Tiny sizes: a smoke run of every step in seconds.
-        #[arg(long)]
-        quick: bool,
-        /// No progress lines on stderr.
-        #[arg(long)]
-        quiet: bool,
-    },
 }
 
 /// `--precision` (the library's `Precision` has no clap derive: the libraries stay CLI-free).
@@ -136,29 +85,13 @@ fn main() -> ExitCode {
 }
 
 fn run(cli: Cli) -> Result<()> {
-    match cli.command {
-        Some(Command::Basis(args)) => prt_bake::basis::cli::run(&args),
-        Some(Command::Bench(BenchCommand::Rays { rays, config, json })) => {
-            bench_rays(rays, config, json)
-        }
-        Some(Command::Bench(BenchCommand::Pixel {
-            configs,
-            out,
-            img_dir,
-            work_dir,
-            quick,
-            quiet,
-        })) => bench_pixel(configs, out, img_dir, work_dir, quick, quiet),
-        None => {
-            let Some(input) = cli.bake.input.clone() else {
-                bail!(
-                    "give a bake config, a scene folder or a glTF scene, e.g. \
-                     `bake scenes/cornell` (see --help)"
-                );
-            };
-            bake(&input, &cli.bake)
-        }
-    }
+    let Some(input) = cli.bake.input.clone() else {
+        bail!(
+            "give a bake config, a scene folder or a glTF scene, e.g. `bake scenes/cornell` \
+             (see --help)"
+        );
+    };
+    bake(&input, &cli.bake)
 }
 
 fn bake(input: &std::path::Path, a: &BakeArgs) -> Result<()> {
@@ -203,90 +136,5 @@ fn bake(input: &std::path::Path, a: &BakeArgs) -> Result<()> {
             human_bytes(summary.file_bytes)
         );
     }
-    Ok(())
-}
-
-fn bench_rays(rays: usize, config: Option<PathBuf>, json: bool) -> Result<()> {
-    let scene = match config {
-        Some(c) => load(&c, &Stderr::new(json))?.1,
-        None => prt_bake::bench::hundred_k_scene(),
-    };
-    let figures = prt_bake::bench::ray_throughput(&scene, rays.max(1));
-    if json {
-        println!(
-            "{}",
-            serde_json::json!({"triangles": scene.triangles.len(), "results": figures})
-        );
-    } else {
-        println!(
-            "ray throughput, {} triangles, {} rays per measurement",
-            scene.triangles.len(),
-            rays
-        );
-        println!("{:<24} {:>8} {:>14}", "kind", "threads", "Mrays/s");
-        for f in figures {
-            println!(
-                "{:<24} {:>8} {:>14.2}",
-                f.kind,
-                f.threads,
-                f.rays_per_second / 1e6
-            );
-        }
-    }
-    Ok(())
-}
-
-fn bench_pixel(
-    configs: Vec<PathBuf>,
-    out: Option<PathBuf>,
-    img_dir: Option<PathBuf>,
-    work_dir: PathBuf,
-    quick: bool,
-    quiet: bool,
-) -> Result<()> {
-    use prt_bake::report_pixel::{run, ReportOptions, DEFAULT_CONFIGS};
-    let configs = if configs.is_empty() {
-        let d: Vec<PathBuf> = DEFAULT_CONFIGS.iter().map(PathBuf::from).collect();
-        if let Some(missing) = d.iter().find(|p| !p.is_file()) {
-            bail!(
-                "{} not found: run from the repository root or give --config",
-                missing.display()
-            );
-        }
-        d
-    } else {
-        configs
-    };
-    let quick_dir = PathBuf::from("target/report/quick");
-    let opts = ReportOptions {
-        configs,
-        out: out.unwrap_or_else(|| {
-            if quick {
-                quick_dir.join("report-pixel.md")
-            } else {
-                PathBuf::from("docs/report-pixel.md")
-            }
-        }),
-        img_dir: img_dir.unwrap_or_else(|| {
-            if quick {
-                quick_dir.join("img")
-            } else {
-                PathBuf::from("docs/img")
-            }
-        }),
-        work_dir,
-        quick,
-        command: std::env::args()
-            .skip(1)
-            .fold("bake".to_string(), |a, b| a + " " + &b),
-        verbose: !quiet,
-    };
-    let summary = run(&opts)?;
-    eprintln!(
-        "wrote {} and {} images in {:.0} s",
-        summary.markdown.display(),
-        summary.images.len(),
-        summary.seconds
-    );
     Ok(())
 }

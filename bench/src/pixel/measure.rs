@@ -1,0 +1,297 @@
+//! The timed steps: bakes, reference renders, PCA over pixels, relights.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use prt_bake::metrics::relative_l2;
+use prt_bake::pixel::{self, Compressed, PixelBake, PixelBakeOptions, Precision, SlotLayout};
+use prt_bake::scene::Scene;
+use prt_formats::basis::BrdfBasis;
+use prt_formats::{Family, MaterialOverride};
+use prt_runtime::{Relighter, Variant};
+
+use super::scenes::{SceneCtx, Setting};
+use super::stream::StreamBench;
+use crate::util::median;
+
+pub(crate) struct BakeRun {
+    pub(crate) bake: PixelBake,
+    pub(crate) seconds: f64,
+    pub(crate) rays: u64,
+    pub(crate) slots: usize,
+}
+
+pub(crate) fn bake_once(
+    ctx: &SceneCtx,
+    bases: &[BrdfBasis],
+    w: u32,
+    h: u32,
+    spp: u32,
+) -> Result<BakeRun> {
+    let layout = SlotLayout::new(&ctx.scene, bases).map_err(anyhow::Error::msg)?;
+    let opts = PixelBakeOptions {
+        width: w,
+        height: h,
+        spp,
+        reflections: ctx.config.reflections,
+        seed: ctx.config.seed,
+        precision: Precision::F16,
+        max_memory: None,
+        compress_rank: None,
+    };
+    let t = Instant::now();
+    let bake = pixel::bake(&ctx.scene, &layout, &opts, None).map_err(anyhow::Error::msg)?;
+    let seconds = t.elapsed().as_secs_f64();
+    let rays = bake.meta.stats.rays;
+    Ok(BakeRun {
+        bake,
+        seconds,
+        rays,
+        slots: layout.total_slots,
+    })
+}
+
+pub(crate) struct RefRun {
+    pub(crate) pixels: Vec<[f32; 3]>,
+    pub(crate) seconds: f64,
+    pub(crate) rays: u64,
+}
+
+/// True-BRDF render of `scene` (timed from the acceleration structure build on, as the bake).
+pub(crate) fn reference(
+    scene: &Scene,
+    reflections: u32,
+    w: u32,
+    h: u32,
+    spp: u32,
+    seed: u64,
+) -> RefRun {
+    let t = Instant::now();
+    let r = prt_bake::reference::render_true(scene, reflections as usize, w, h, spp, seed, None);
+    RefRun {
+        pixels: r.pixels.iter().map(|p| p.to_array()).collect(),
+        seconds: t.elapsed().as_secs_f64(),
+        rays: r.rays,
+    }
+}
+
+/// Full-rank PCA of every group (computed once), truncated to any rank afterwards.
+pub(crate) struct Pca {
+    pub(crate) per_group: Vec<Compressed>,
+    pub(crate) seconds: f64,
+}
+
+impl Pca {
+    pub(crate) fn new(bake: &PixelBake, max_rank: usize) -> Pca {
+        let t = Instant::now();
+        let per_group = bake
+            .groups
+            .iter()
+            .zip(&bake.meta.groups)
+            .map(|(g, gm)| {
+                prt_bake::pixel::pca_rows(
+                    &g.rows,
+                    g.pixels.len(),
+                    gm.row_len as usize,
+                    max_rank,
+                )
+            })
+            .collect();
+        Pca {
+            per_group,
+            seconds: t.elapsed().as_secs_f64(),
+        }
+    }
+
+    /// Stores the rank-`k` truncation as the bake's compressed variant.
+    pub(crate) fn apply(&self, bake: &mut PixelBake, k: usize) {
+        for ((g, gm), full) in bake
+            .groups
+            .iter_mut()
+            .zip(bake.meta.groups.iter_mut())
+            .zip(&self.per_group)
+        {
+            let r = k.min(full.rank);
+            let len = gm.row_len as usize;
+            let weights = full
+                .weights
+                .chunks_exact(full.rank.max(1))
+                .flat_map(|w| w[..r].iter().copied())
+                .collect::<Vec<_>>();
+            let weights = if full.rank == 0 { Vec::new() } else { weights };
+            g.compressed = Some(Compressed {
+                mean: full.mean.clone(),
+                components: full.components[..r * len].to_vec(),
+                weights,
+                rank: r,
+            });
+            gm.compressed_rank = Some(r as u32);
+        }
+    }
+}
+
+/// A relighter whose state can be set to any setting: `reset` restores every editable
+/// material's starting parameters before the setting's edits are applied.
+pub(crate) struct Relit {
+    pub(crate) r: Relighter,
+    pub(crate) reset: Vec<MaterialOverride>,
+}
+
+impl Relit {
+    pub(crate) fn open(path: &Path) -> Result<Relit> {
+        use prt_formats::OverrideValue;
+        let r = Relighter::open(path).with_context(|| format!("opening {}", path.display()))?;
+        let mut reset = Vec::new();
+        for m in r.meta().materials.iter().filter(|m| m.editable) {
+            let p = m.params();
+            let mut push = |value| {
+                reset.push(MaterialOverride {
+                    material: m.name.clone(),
+                    value,
+                })
+            };
+            push(OverrideValue::Kd(p.kd));
+            if m.basis.is_some() {
+                push(OverrideValue::Ks(p.ks));
+                match m.family {
+                    Family::BlinnPhong => push(OverrideValue::Shininess(p.param)),
+                    Family::Ggx => push(OverrideValue::Alpha(p.param)),
+                    Family::Diffuse => {}
+                }
+            }
+        }
+        Ok(Relit { r, reset })
+    }
+
+    pub(crate) fn set(&mut self, s: &Setting) -> Result<()> {
+        for e in self.reset.iter().chain(&s.edits) {
+            self.r
+                .apply(e)
+                .with_context(|| format!("setting '{}': {e}", s.label))?;
+        }
+        Ok(())
+    }
+
+    pub(crate) fn frame(&mut self, s: &Setting, v: Variant) -> Result<prt_runtime::Frame> {
+        self.set(s)?;
+        Ok(self.r.render(v)?)
+    }
+
+    pub(crate) fn image(&mut self, s: &Setting, v: Variant) -> Result<Vec<[f32; 3]>> {
+        Ok(self.frame(s, v)?.pixels)
+    }
+}
+
+/// One relight variant under test.
+pub(crate) struct VariantRun {
+    pub(crate) label: String,
+    pub(crate) rank: Option<usize>,
+    pub(crate) variant: Variant,
+    pub(crate) path: PathBuf,
+    pub(crate) file_bytes: u64,
+}
+
+#[derive(Clone, Debug)]
+pub(crate) struct RelightTiming {
+    pub(crate) label: String,
+    pub(crate) rank: Option<usize>,
+    pub(crate) file_bytes: u64,
+    pub(crate) bytes_read: u64,
+    pub(crate) median_s: f64,
+    pub(crate) min_s: f64,
+    pub(crate) max_s: f64,
+    /// Largest relative L2 difference to the uncompressed relight over the settings.
+    pub(crate) added_error: Option<f64>,
+}
+
+/// Times every variant, interleaved frame by frame (so a burst of load on the shared machine
+/// hits all variants alike): two warm-up rounds, then `frames` rounds, the settings cycling
+/// between rounds (each frame restores the starting values and applies a setting's edits).
+/// Added error: largest relative L2 difference of each variant to the first one over the
+/// settings.
+pub(crate) fn time_variants(
+    runs: &[VariantRun],
+    settings: &[Setting],
+    frames: usize,
+    stream: &StreamBench,
+    stream_every: usize,
+) -> Result<(Vec<RelightTiming>, Vec<f64>)> {
+    let mut rls = runs
+        .iter()
+        .map(|v| Relit::open(&v.path))
+        .collect::<Result<Vec<_>>>()?;
+    let mut times = vec![Vec::with_capacity(frames); runs.len()];
+    let mut bytes = vec![0u64; runs.len()];
+    let mut rates = Vec::new();
+    for f in 0..frames + 2 {
+        if f >= 2 && (f - 2) % stream_every.max(1) == 0 {
+            rates.push(stream.run());
+        }
+        let s = &settings[f % settings.len()];
+        for (i, (r, v)) in rls.iter_mut().zip(runs).enumerate() {
+            let fr = r.frame(s, v.variant)?;
+            bytes[i] = fr.bytes_read;
+            if f >= 2 {
+                times[i].push(fr.seconds);
+            }
+        }
+    }
+    let mut added = vec![0.0f64; runs.len()];
+    for s in settings {
+        let base = rls[0].image(s, runs[0].variant)?;
+        for (i, (r, v)) in rls.iter_mut().zip(runs).enumerate().skip(1) {
+            added[i] = added[i].max(relative_l2(&r.image(s, v.variant)?, &base));
+        }
+    }
+    let rows = runs
+        .iter()
+        .enumerate()
+        .map(|(i, v)| RelightTiming {
+            label: v.label.clone(),
+            rank: v.rank,
+            file_bytes: v.file_bytes,
+            bytes_read: bytes[i],
+            median_s: median(&times[i]),
+            min_s: times[i].iter().copied().fold(f64::INFINITY, f64::min),
+            max_s: times[i].iter().copied().fold(0.0, f64::max),
+            added_error: (i > 0 && v.variant == Variant::Compressed).then_some(added[i]),
+        })
+        .collect();
+    Ok((rows, rates))
+}
+
+/// Relit images of every setting from one bake file.
+pub(crate) fn relight_all(
+    path: &Path,
+    settings: &[Setting],
+    v: Variant,
+) -> Result<Vec<Vec<[f32; 3]>>> {
+    let mut r = Relit::open(path)?;
+    settings.iter().map(|s| r.image(s, v)).collect()
+}
+
+pub(crate) fn write_bake(bake: &PixelBake, path: &Path) -> Result<u64> {
+    pixel::write_bake_file(bake, path, Precision::F16)
+        .map_err(anyhow::Error::msg)
+        .with_context(|| format!("writing {}", path.display()))
+}
+
+pub(crate) fn remove(path: &Path) {
+    let _ = std::fs::remove_file(path);
+}
+
+pub(crate) fn err_norm_diff(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (0..3).map(|c| ((x[c] - y[c]) as f64).powi(2)).sum::<f64>())
+        .sum::<f64>()
+        .sqrt()
+}
+
+pub(crate) fn err_norm(a: &[[f32; 3]]) -> f64 {
+    a.iter()
+        .map(|p| p.iter().map(|&v| (v as f64).powi(2)).sum::<f64>())
+        .sum::<f64>()
+        .sqrt()
+}
