@@ -55,6 +55,14 @@ impl Rng {
         (self.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0)
     }
 
+    /// Uniform in [0, 1) with 53 random bits (two draws), for f64 estimators.
+    #[inline]
+    pub fn next_f64(&mut self) -> f64 {
+        let hi = (self.next_u32() >> 5) as u64; // 27 bits
+        let lo = (self.next_u32() >> 6) as u64; // 26 bits
+        ((hi << 26) | lo) as f64 * (1.0 / 9_007_199_254_740_992.0)
+    }
+
     #[inline]
     pub fn next_vec2(&mut self) -> Vec2 {
         let x = self.next_f32();

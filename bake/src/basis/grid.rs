@@ -3,7 +3,7 @@
 //! `prt_formats::basis` for the conventions) and the quadrature weights that define the error
 //! metric of docs/brdf-basis.md.
 
-use crate::brdf::Family;
+use crate::brdf::{Family, Lobe};
 use faer::Mat;
 use prt_formats::basis::{
     half_diff_node, half_diff_pair, AngularGrid, GridKind, GridNode, GridSpec, ParamWarp,
@@ -36,29 +36,7 @@ pub fn lobe_f64(family: Family, p: f64, ti: f64, to: f64, phi: f64) -> f64 {
 /// Cosines below 0 are clamped to 0, so the value continues the lobe past the horizon with its
 /// grazing limit (what half/difference nodes outside the hemisphere pair hold).
 pub fn lobe_cosines(family: Family, p: f64, ci: f64, co: f64, cos_h: f64) -> f64 {
-    let (ci, co) = (ci.clamp(0.0, 1.0), co.clamp(0.0, 1.0));
-    let cos_h = cos_h.clamp(0.0, 1.0);
-    match family {
-        Family::Diffuse => 0.0,
-        Family::BlinnPhong => {
-            let s = p;
-            if cos_h <= 0.0 {
-                return if s == 0.0 { 1.0 / PI } else { 0.0 };
-            }
-            (s + 2.0) / (2.0 * PI) * (s * cos_h.ln()).exp()
-        }
-        Family::Ggx => {
-            let a2 = p * p;
-            let c2 = cos_h * cos_h;
-            let denom = a2 * c2 + (1.0 - c2).max(0.0);
-            if denom <= 0.0 {
-                return 0.0;
-            }
-            let d = a2 / (PI * denom * denom);
-            let g1c = |c: f64| 2.0 / (c + (a2 + (1.0 - a2) * c * c).sqrt());
-            d * g1c(ci) * g1c(co) / 4.0
-        }
-    }
+    family.lobe_cosines_f64(p, ci, co, cos_h)
 }
 
 /// The lobe for local-frame unit vectors (both above the horizon, else 0), in f64.

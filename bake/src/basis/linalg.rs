@@ -1,7 +1,7 @@
 //! Thin wrappers over faer's f64 decompositions, always run sequentially (`Par::Seq`) so that
 //! results are bit-for-bit identical whatever the thread count, plus a sign convention.
 
-use super::BasisError;
+use super::error::BasisError;
 use faer::diag::Diag;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::evd::{self_adjoint_evd, self_adjoint_evd_scratch, ComputeEigenvectors};

@@ -224,7 +224,7 @@ impl BuiltBasis {
         let o = &self.model.options;
         BrdfBasis {
             version: BASIS_SCHEMA_VERSION,
-            family: self.spec.family.name().to_string(),
+            family: self.spec.family,
             method: format!(
                 "pca weighting={:?} normalize={} project_diffuse={} minimax_iters={} samples={}",
                 o.weighting,
@@ -264,17 +264,4 @@ fn flush_tiny(x: f64) -> f32 {
 pub fn build_basis(config: BasisConfig) -> Result<BuiltBasis, BasisError> {
     let nb = config.num_bases;
     BasisBuilder::new(config)?.build(nb)
-}
-
-/// Coefficients of `basis` for lobe parameter `param`, warning on stderr when it had to be
-/// clamped to the sampled range.
-pub fn coefficients_or_warn(basis: &BrdfBasis, param: f32) -> Vec<f32> {
-    let (c, clamped) = basis.coefficients(param);
-    if clamped {
-        eprintln!(
-            "warning: {} parameter {param} is outside the basis range [{}, {}]; clamped",
-            basis.family, basis.param_range[0], basis.param_range[1]
-        );
-    }
-    c
 }

@@ -16,8 +16,8 @@
 //! Signs are fixed (largest-magnitude table entry positive) and everything runs with
 //! `Par::Seq`, so builds are reproducible bit-for-bit.
 
+use super::error::BasisError;
 use super::linalg::{fix_sign, qr_r, svd_thin};
-use super::BasisError;
 use faer::{Mat, MatRef};
 use prt_formats::basis::GridSpec;
 use serde::{Deserialize, Serialize};

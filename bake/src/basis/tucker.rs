@@ -9,9 +9,11 @@
 //! relative errors. The scalings are per mode, so unscaling the factor matrices gives a Tucker
 //! decomposition of the raw BRDF values.
 
+use super::error::BasisError;
 use super::grid::lobe_f64;
 use super::linalg::{fix_sign, matmul, matmul_tn, sym_eig_desc};
-use super::{BasisError, FamilySpec};
+use super::FamilySpec;
+use crate::brdf::Family;
 use faer::Mat;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -496,7 +498,7 @@ pub struct TuckerCell {
 /// The error grid of thesis figure 5-5, with and without the specular split.
 #[derive(Clone, Debug, Serialize)]
 pub struct TuckerReport {
-    pub family: String,
+    pub family: Family,
     pub param_range: [f64; 2],
     pub param_samples: usize,
     pub dirs: HemiGrid,
@@ -545,7 +547,7 @@ pub fn tucker_report(
         }
     }
     Ok(TuckerReport {
-        family: spec.family.name().into(),
+        family: spec.family,
         param_range: [spec.range.0, spec.range.1],
         param_samples,
         dirs,

@@ -40,6 +40,11 @@ pub trait Lobe {
     /// The lobe in f64 from `cos(theta_i)`, `cos(theta_o)` and `cos(theta_h)`, each clamped to
     /// [0, 1] (basis tabulation: past the horizon it continues with its grazing limit).
     fn lobe_cosines_f64(self, param: f64, cos_i: f64, cos_o: f64, cos_h: f64) -> f64;
+    /// `cos(theta_h)` of a half vector sampled with the lobe's half-vector density, in f64,
+    /// from a uniform `u` (the azimuth is uniform); 1 for `Diffuse`.
+    fn sample_cos_h_f64(self, param: f64, u: f64) -> f64;
+    /// The half-vector density (solid angle of h) of [`Lobe::sample_cos_h_f64`], in f64.
+    fn half_pdf_f64(self, param: f64, cos_h: f64) -> f64;
     /// Whether a larger parameter makes the lobe sharper (shininess) or wider (alpha).
     fn sharper_with_larger_param(self) -> bool;
     /// Default number of basis BRDFs of an editable material of this family. Blinn-Phong keeps
@@ -106,6 +111,22 @@ impl Lobe for Family {
             Family::Diffuse => 0.0,
             Family::BlinnPhong => blinn_phong::lobe_f64(param, cos_h),
             Family::Ggx => ggx::lobe_f64(param, ci, co, cos_h),
+        }
+    }
+
+    fn sample_cos_h_f64(self, param: f64, u: f64) -> f64 {
+        match self {
+            Family::BlinnPhong => blinn_phong::sample_cos_h_f64(param, u),
+            Family::Ggx => ggx::sample_cos_h_f64(param, u),
+            Family::Diffuse => 1.0,
+        }
+    }
+
+    fn half_pdf_f64(self, param: f64, cos_h: f64) -> f64 {
+        match self {
+            Family::BlinnPhong => blinn_phong::half_pdf_f64(param, cos_h),
+            Family::Ggx => ggx::half_pdf_f64(param, cos_h),
+            Family::Diffuse => 0.0,
         }
     }
 

@@ -60,7 +60,7 @@ impl SlotLayout {
             let textured = m.base_color_texture.is_some();
             let mut basis_index = None;
             let (slots, reason) = if m.editable && b.family != Family::Diffuse {
-                let Some(basis) = bases.iter().find(|x| x.family == b.family.name()) else {
+                let Some(basis) = bases.iter().find(|x| x.family == b.family) else {
                     return Err(PixelError::MissingBasis {
                         material: m.name.clone(),
                         family: b.family,

@@ -2,7 +2,8 @@
 //! ([`continuous_error`]), and the error of its directional albedo.
 
 use prt_bake::basis::grid::{lobe_vectors, tabulate_one};
-use prt_bake::brdf::Family;
+use prt_bake::brdf::{Family, Lobe};
+use prt_bake::sampling::Rng;
 use prt_formats::basis::BrdfBasis;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -98,15 +99,14 @@ pub fn continuous_error_n(
     let batches: Vec<(f64, f64, f64, bool)> = (0..BATCHES)
         .into_par_iter()
         .map(|b| {
-            let mut rng =
-                Xorshift(0x9E37_79B9_7F4A_7C15 ^ ((b as u64 + 1) * 0xD1B5_4A32_D192_ED03));
+            let mut rng = Rng::for_sample(0x9E37_79B9_7F4A_7C15, b as u64, 0);
             let mut out = vec![0.0f32; basis.num_bases];
             let mut one = [0.0f32];
             let (mut nb, mut ng, mut den) = (0.0, 0.0, 0.0);
             let mut finite = true;
             for _ in 0..per {
-                let wo = cosine_dir(rng.next(), rng.next());
-                let (u0, u1, u2) = (rng.next(), rng.next(), rng.next());
+                let wo = cosine_dir(rng.next_f64(), rng.next_f64());
+                let (u0, u1, u2) = (rng.next_f64(), rng.next_f64(), rng.next_f64());
                 let wi = if u0 < 0.5 {
                     cosine_dir(u1, u2)
                 } else {
@@ -199,13 +199,12 @@ pub fn albedo_errors(
         .map(|(j, &deg)| {
             let t = deg.to_radians();
             let wo = [t.sin(), 0.0, t.cos()];
-            let mut rng =
-                Xorshift(0x2545_F491_4F6C_DD1D ^ ((j as u64 + 1) * 0x9E37_79B9_7F4A_7C15));
+            let mut rng = Rng::for_sample(0x2545_F491_4F6C_DD1D, j as u64, 0);
             let mut out = vec![0.0f32; basis.num_bases];
             let mut one = [0.0f32];
             let (mut ex, mut rb, mut rg) = (0.0, 0.0, 0.0);
             for _ in 0..samples {
-                let (u0, u1, u2) = (rng.next(), rng.next(), rng.next());
+                let (u0, u1, u2) = (rng.next_f64(), rng.next_f64(), rng.next_f64());
                 let wi = if u0 < 0.5 {
                     cosine_dir(u1, u2)
                 } else {
@@ -244,18 +243,6 @@ pub fn albedo_errors(
         .collect()
 }
 
-struct Xorshift(u64);
-
-impl Xorshift {
-    /// Uniform in [0, 1).
-    fn next(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
-
 fn to_f32(v: [f64; 3]) -> [f32; 3] {
     [v[0] as f32, v[1] as f32, v[2] as f32]
 }
@@ -269,15 +256,7 @@ fn cosine_dir(u1: f64, u2: f64) -> [f64; 3] {
 
 /// Half vector with the lobe's density (see [`continuous_error_n`]).
 fn sample_half(family: Family, p: f64, u1: f64, u2: f64) -> [f64; 3] {
-    let ct = match family {
-        Family::Ggx => {
-            let a2 = p * p;
-            ((1.0 - u1) / (1.0 + (a2 - 1.0) * u1))
-                .clamp(0.0, 1.0)
-                .sqrt()
-        }
-        _ => u1.max(1e-300).powf(1.0 / (p.max(0.0) + 1.0)),
-    };
+    let ct = family.sample_cos_h_f64(p, u1);
     let st = (1.0 - ct * ct).max(0.0).sqrt();
     let ph = 2.0 * std::f64::consts::PI * u2;
     [st * ph.cos(), st * ph.sin(), ct]
@@ -296,20 +275,6 @@ fn lobe_pdf(family: Family, p: f64, wi: [f64; 3], wo: [f64; 3]) -> f64 {
     if woh <= 0.0 {
         return 0.0;
     }
-    let ph = match family {
-        Family::Ggx => {
-            let a2 = p * p;
-            let c2 = ct * ct;
-            let den = a2 * c2 + (1.0 - c2).max(0.0);
-            if den <= 0.0 {
-                return 0.0;
-            }
-            a2 / (std::f64::consts::PI * den * den) * ct
-        }
-        _ => {
-            let s = p.max(0.0);
-            (s + 1.0) / (2.0 * std::f64::consts::PI) * (s * ct.max(1e-300).ln()).exp()
-        }
-    };
+    let ph = family.half_pdf_f64(p, ct);
     ph / (4.0 * woh)
 }

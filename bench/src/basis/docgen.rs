@@ -10,6 +10,7 @@ use anyhow::{Context, Result};
 use prt_bake::basis::tucker::TuckerReport;
 use prt_bake::basis::BasisBuilder;
 use prt_formats::basis::{BrdfBasis, GridSpec};
+use prt_formats::Family;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -53,7 +54,7 @@ fn error_plot(r: &FamilyReport, path: &Path) -> Result<()> {
             .color([213, 94, 0])
             .dashed(),
     );
-    if r.family == "blinn-phong" {
+    if r.family == Family::BlinnPhong {
         let mut s = Series::new("thesis paper, N_b=6", vec![(6.0, 0.007979), (6.0, 0.06747)])
             .color([0, 0, 0]);
         s.dashed = true;
@@ -174,7 +175,7 @@ pub fn write_report(md_path: &Path, args: &BasisArgs) -> Result<Vec<PathBuf>> {
     let mut summary = String::new();
     for (r, _, _) in &reps {
         if let Some(row) = r.rows.iter().find(|x| x.num_bases == 6) {
-            summary += &summary_line(&r.family, row)?;
+            summary += &summary_line(r.family.name(), row)?;
             summary += "\n";
         }
     }
@@ -281,10 +282,15 @@ fn family_section(
         FAMILY,
         "family",
         &[
-            ("family", r.family.clone()),
+            ("family", r.family.to_string()),
             (
                 "param",
-                if r.family == "ggx" { "alpha" } else { "s" }.into(),
+                if r.family == Family::Ggx {
+                    "alpha"
+                } else {
+                    "s"
+                }
+                .into(),
             ),
             ("lo", r.param_range[0].to_string()),
             ("hi", r.param_range[1].to_string()),

@@ -7,6 +7,7 @@ use prt_bake::basis::pca::{PcaBuilder, PcaModel, PcaOptions};
 use prt_bake::basis::select::{measure, persisted_recon, ErrStats, EvalSet, Negativity};
 use prt_bake::basis::{BasisBuilder, BasisConfig, BasisError, BuiltBasis};
 use prt_formats::basis::{BrdfBasis, GridSpec};
+use prt_formats::Family;
 use serde::Serialize;
 use std::time::Instant;
 
@@ -72,7 +73,7 @@ pub struct NbRow {
 /// The whole report for a family.
 #[derive(Clone, Debug, Serialize)]
 pub struct FamilyReport {
-    pub family: String,
+    pub family: Family,
     pub param_range: [f64; 2],
     pub grid: [usize; 3],
     /// `angles` or `half-diff`.
@@ -177,7 +178,7 @@ pub fn family_report(
     let timing = time_runtime(&basis);
     Ok((
         FamilyReport {
-            family: config.spec.family.name().into(),
+            family: config.spec.family,
             param_range: [config.spec.range.0, config.spec.range.1],
             grid: [
                 config.grid.n_theta_i,
@@ -281,7 +282,7 @@ pub fn format_table(r: &FamilyReport) -> String {
         "{} basis, {} in [{}, {}], grid {} {}x{}x{}, {} build samples; errors on {}\n\
          relative L2 error (cosine-weighted, %), ours vs the thesis' method (on the thesis grid); thesis-metric = uniform norm on the thesis grid\n",
         r.family,
-        if r.family == "ggx" { "alpha" } else { "s" },
+        if r.family == Family::Ggx { "alpha" } else { "s" },
         r.param_range[0],
         r.param_range[1],
         r.grid_kind,

@@ -90,12 +90,7 @@ impl Pca {
             .iter()
             .zip(&bake.meta.groups)
             .map(|(g, gm)| {
-                prt_bake::pixel::pca_rows(
-                    &g.rows,
-                    g.pixels.len(),
-                    gm.row_len as usize,
-                    max_rank,
-                )
+                prt_bake::pixel::pca_rows(&g.rows, g.pixels.len(), gm.row_len as usize, max_rank)
             })
             .collect();
         Pca {

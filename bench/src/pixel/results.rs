@@ -5,8 +5,8 @@ use prt_formats::basis::AngularGrid;
 use std::path::PathBuf;
 
 use super::measure::RelightTiming;
+use super::options::{Plan, ReportOptions};
 use super::stream::Bandwidth;
-use super::{Plan, ReportOptions};
 
 pub(crate) struct BakeRow {
     pub(crate) what: String,

@@ -12,7 +12,7 @@ use prt_bake::scene::Scene;
 use prt_formats::basis::{AngularGrid, BrdfBasis};
 use prt_formats::MaterialOverride;
 
-use super::DEFAULT_SETTINGS;
+use super::options::DEFAULT_SETTINGS;
 
 /// A named set of material edits.
 #[derive(Clone, Debug)]

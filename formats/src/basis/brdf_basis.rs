@@ -10,8 +10,8 @@ use super::{AngularGrid, BasisError, GridKind, GridSpec, ParamWarp, BASIS_SCHEMA
 pub struct BrdfBasis {
     /// [`BASIS_SCHEMA_VERSION`].
     pub version: u32,
-    /// `"blinn-phong"` or `"ggx"`.
-    pub family: String,
+    /// The family (stored by name: `"blinn-phong"` or `"ggx"`).
+    pub family: crate::family::Family,
     /// How the basis was built (free text, for provenance).
     pub method: String,
     /// Sampled parameter range `[min, max]` (shininess s, or GGX alpha).

@@ -30,7 +30,7 @@ fn tiny() -> BrdfBasis {
     }
     BrdfBasis {
         version: BASIS_SCHEMA_VERSION,
-        family: "blinn-phong".into(),
+        family: crate::family::Family::BlinnPhong,
         method: "test".into(),
         param_range: [1.0, 100.0],
         param_warp: ParamWarp::Log { offset: 2.0 },
