@@ -78,6 +78,18 @@ pub enum Variant {
     Compressed,
 }
 
+/// Which inner loops [`Relighter::render`] runs. Both give bit-identical frames (the per-lane
+/// arithmetic is the same); the switch exists so tests and measurements can run the portable
+/// path on a CPU that has the vector instructions.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Kernel {
+    /// The fastest the CPU supports: AVX2 (and F16C for f16 bakes) on x86-64, else portable.
+    #[default]
+    Auto,
+    /// The portable scalar code, whatever the CPU.
+    Scalar,
+}
+
 /// A relit image and what it cost.
 #[derive(Clone, Debug)]
 pub struct Frame {
@@ -99,6 +111,7 @@ pub struct Relighter {
     meta: PixelBakeMeta,
     bases: Vec<BrdfBasis>,
     params: Vec<MaterialParams>,
+    kernel: Kernel,
 }
 
 impl Relighter {
@@ -198,7 +211,14 @@ impl Relighter {
             meta,
             bases,
             params,
+            kernel: Kernel::Auto,
         })
+    }
+
+    /// Chooses the inner loops of [`Relighter::render`] (default [`Kernel::Auto`]); the frames
+    /// are the same bit for bit, only the speed differs.
+    pub fn set_kernel(&mut self, kernel: Kernel) {
+        self.kernel = kernel;
     }
 
     /// The bake's per-pixel metadata (camera, materials, slots, groups).
@@ -362,6 +382,7 @@ impl Relighter {
             .chunks_exact(3)
             .map(|c| [c[0], c[1], c[2]])
             .collect();
+        let simd = self.kernel == Kernel::Auto;
         let band = width * BAND_ROWS;
         pixels
             .par_chunks_mut(band.max(1))
@@ -376,7 +397,7 @@ impl Relighter {
                     let mut i = first;
                     while i < last {
                         let end = (i + BLOCK).min(last);
-                        let acc = g.contract_block(i, end, &mut scratch);
+                        let acc = g.contract_block(i, end, simd, &mut scratch);
                         for (k, p) in g.pixels[i..end].iter().enumerate() {
                             let o = &mut out[(p - lo) as usize];
                             o[0] += acc[0][k];
@@ -476,8 +497,15 @@ impl GroupFrame<'_> {
         }
     }
 
-    /// Radiance of the group's pixels `i0..i1` (at most [`BLOCK`]), per channel.
-    fn contract_block<'s>(&self, i0: usize, i1: usize, sc: &'s mut Scratch) -> &'s [Vec<f32>; 3] {
+    /// Radiance of the group's pixels `i0..i1` (at most [`BLOCK`]), per channel; `simd` allows
+    /// the vector kernels.
+    fn contract_block<'s>(
+        &self,
+        i0: usize,
+        i1: usize,
+        simd: bool,
+        sc: &'s mut Scratch,
+    ) -> &'s [Vec<f32>; 3] {
         let n = i1 - i0;
         for a in sc.acc.iter_mut() {
             a.clear();
@@ -486,9 +514,9 @@ impl GroupFrame<'_> {
         let mut terms = std::mem::take(&mut sc.terms);
         let init = self.terms(&mut terms);
         match &self.data {
-            Rows::F32(t) => tiles_f32(t, &terms, i0, init, &mut sc.acc),
-            Rows::F16(t, _) => tiles_f16(t, &terms, i0, init, &mut sc.acc),
-            Rows::Compressed { z, .. } => tiles_f32(z, &terms, i0, init, &mut sc.acc),
+            Rows::F32(t) => tiles_f32(t, &terms, i0, init, simd, &mut sc.acc),
+            Rows::F16(t, _) => tiles_f16(t, &terms, i0, init, simd, &mut sc.acc),
+            Rows::Compressed { z, .. } => tiles_f32(z, &terms, i0, init, simd, &mut sc.acc),
         }
         sc.terms = terms;
         &sc.acc
@@ -556,9 +584,16 @@ fn load_f32(src: &[f32]) -> [f32; TILE] {
     x
 }
 
-fn tiles_f32(t: &[f32], terms: &[Term], i0: usize, init: [f32; 3], acc: &mut [Vec<f32>; 3]) {
+fn tiles_f32(
+    t: &[f32],
+    terms: &[Term],
+    i0: usize,
+    init: [f32; 3],
+    simd: bool,
+    acc: &mut [Vec<f32>; 3],
+) {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
+    if simd && std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU supports AVX2 (checked just above).
         unsafe { tiles_f32_avx2(t, terms, i0, init, acc) };
         return;
@@ -579,9 +614,19 @@ unsafe fn tiles_f32_avx2(
     tiles_impl(t, terms, i0, init, acc, load_f32, |v| v);
 }
 
-fn tiles_f16(t: &[f16], terms: &[Term], i0: usize, init: [f32; 3], acc: &mut [Vec<f32>; 3]) {
+fn tiles_f16(
+    t: &[f16],
+    terms: &[Term],
+    i0: usize,
+    init: [f32; 3],
+    simd: bool,
+    acc: &mut [Vec<f32>; 3],
+) {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("f16c") {
+    if simd
+        && std::arch::is_x86_feature_detected!("avx2")
+        && std::arch::is_x86_feature_detected!("f16c")
+    {
         // SAFETY: the CPU supports AVX2 and F16C (checked just above).
         unsafe { tiles_f16_avx2(t, terms, i0, init, acc) };
         return;

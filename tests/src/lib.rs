@@ -182,5 +182,49 @@ pub fn bake_to_file(
     (layout, path)
 }
 
-/// Relative L2 error ||a - b|| / ||b|| over all channels (the report's definition).
-pub use prt_bake::metrics::relative_l2;
+/// Panics unless `a` and `b` are images of the same, nonzero number of pixels: an error
+/// measure that zips a truncated or empty image against a full one would otherwise score the
+/// missing pixels as zero error.
+#[track_caller]
+pub fn assert_same_size(a: &[[f32; 3]], b: &[[f32; 3]]) {
+    assert!(
+        a.len() == b.len(),
+        "images differ in size: {} vs {} pixels (truncated image?)",
+        a.len(),
+        b.len()
+    );
+    assert!(!a.is_empty(), "empty images: nothing to compare");
+}
+
+/// Relative L2 error ||a - b|| / ||b|| over all pixels and channels (the report's
+/// definition, `prt_bake::metrics`); panics when the images differ in size or are empty.
+#[track_caller]
+pub fn relative_l2(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
+    assert_same_size(a, b);
+    prt_bake::metrics::relative_l2(a, b)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::relative_l2;
+
+    #[test]
+    fn relative_l2_scores_equal_images_zero_and_a_black_image_one() {
+        let b = vec![[1.0, 2.0, 3.0], [0.5, 0.0, 4.0]];
+        assert_eq!(relative_l2(&b, &b), 0.0);
+        assert!((relative_l2(&[[0.0; 3]; 2], &b) - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    #[should_panic(expected = "images differ in size: 1 vs 2 pixels")]
+    fn relative_l2_rejects_a_truncated_image() {
+        let b = vec![[1.0, 2.0, 3.0], [0.5, 0.0, 4.0]];
+        relative_l2(&b[..1], &b);
+    }
+
+    #[test]
+    #[should_panic(expected = "empty images")]
+    fn relative_l2_rejects_empty_images() {
+        relative_l2(&[], &[]);
+    }
+}

@@ -8,7 +8,9 @@ use prt_bake::testing::SceneBuilder;
 use prt_formats::overrides::parse_override;
 use prt_formats::pixel::PixelBakeMeta;
 use prt_runtime::{Relighter, RuntimeError, Variant};
-use prt_tests::{bake_to_file, bases_for, relative_l2, small_options, temp_path, test_scene};
+use prt_tests::{
+    assert_same_size, bake_to_file, bases_for, relative_l2, small_options, temp_path, test_scene,
+};
 
 fn set(r: &mut Relighter, edits: &[&str]) {
     for e in edits {
@@ -52,6 +54,7 @@ fn direct_only_edit_changes_exactly_the_objects_pixels() {
         .expect("u32")
         .to_vec();
     let (mut changed, mut same) = (0, 0);
+    assert_same_size(&before, &after);
     for (i, (a, b)) in before.iter().zip(&after).enumerate() {
         if pixels.contains(&(i as u32)) {
             changed += usize::from(a != b);
@@ -197,6 +200,7 @@ fn indirect_edit_leaves_pixels_without_its_light_unchanged() {
         }
     }
     let (mut changed, mut same) = (0, 0);
+    assert_same_size(&before, &after);
     for (i, (a, b)) in before.iter().zip(&after).enumerate() {
         if involved[i] {
             changed += usize::from(a != b);

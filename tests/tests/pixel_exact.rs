@@ -12,7 +12,7 @@ use prt_bake::scene::Scene;
 use prt_formats::overrides::parse_override;
 use prt_formats::pixel::MaterialParams;
 use prt_runtime::{Relighter, Variant};
-use prt_tests::{bake_to_file, bases_for, small_options, test_scene};
+use prt_tests::{assert_same_size, bake_to_file, bases_for, small_options, test_scene};
 
 /// The projected-BRDF reference for the layout's materials with `edits` applied.
 fn projected_reference(
@@ -83,6 +83,7 @@ fn check_exact(scene: &Scene, reflections: u32, expect_channels: u32) {
             .flatten()
             .fold(0.0f32, |m, v| m.max(v.abs()));
         assert!(peak > 0.0);
+        assert_same_size(&frame.pixels, &reference);
         let mut worst = 0.0f32;
         for (a, b) in frame.pixels.iter().zip(&reference) {
             for c in 0..3 {

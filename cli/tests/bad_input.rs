@@ -1,0 +1,176 @@
+//! Bad input to the binaries: a non-zero exit, one `error: ...` line on stderr naming the
+//! problem, and no output file.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn scenes() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes")
+}
+
+/// Runs `bin` with `args`; asserts a failure whose stderr has an `error:` line containing
+/// every string of `expect`, and that `out` was not created.
+fn fails(bin: &str, args: &[&str], expect: &[&str], out: &Path) {
+    let o = Command::new(bin).args(args).output().expect("spawn");
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success(),
+        "{bin} {args:?} succeeded; stderr: {stderr}"
+    );
+    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
+    assert_eq!(
+        errors.len(),
+        1,
+        "{bin} {args:?}: want one error line: {stderr}"
+    );
+    for e in expect {
+        assert!(
+            errors[0].contains(e),
+            "{bin} {args:?}: error line does not name '{e}': {}",
+            errors[0]
+        );
+    }
+    assert!(
+        !out.exists(),
+        "{bin} {args:?} failed but wrote {}",
+        out.display()
+    );
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().expect("utf-8 path")
+}
+
+const BAKE: &str = env!("CARGO_BIN_EXE_bake");
+const RELIGHT: &str = env!("CARGO_BIN_EXE_relight");
+const REFERENCE: &str = env!("CARGO_BIN_EXE_reference");
+
+#[test]
+fn bake_refuses_bad_input() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("out.prtbake");
+    let small = [
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--spp",
+        "1",
+        "--out",
+        s(&out),
+    ];
+    let run = |input: &str, expect: &[&str]| {
+        let mut args = vec![input];
+        args.extend(small);
+        fails(BAKE, &args, expect, &out);
+    };
+    let missing = dir.path().join("missing.toml");
+    run(s(&missing), &["missing.toml"]);
+    let empty_dir = dir.path().join("nothing-here");
+    std::fs::create_dir(&empty_dir).expect("mkdir");
+    run(s(&empty_dir), &["nothing-here", "bake.toml"]);
+    let garbage = dir.path().join("garbage.toml");
+    std::fs::write(&garbage, "this is = = not toml [[[").expect("write");
+    run(s(&garbage), &["garbage.toml"]);
+    let vertex = dir.path().join("vertex.toml");
+    let cornell = scenes().join("cornell/cornell.gltf");
+    std::fs::write(
+        &vertex,
+        format!("scene = {:?}\nmode = \"vertex\"\n", s(&cornell)),
+    )
+    .expect("write");
+    run(s(&vertex), &["vertex"]);
+}
+
+#[test]
+fn relight_refuses_bad_input() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let bake_file = dir.path().join("cornell.prtbake");
+    let baked = Command::new(BAKE)
+        .args([
+            s(&scenes().join("cornell")),
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "--spp",
+            "1",
+            "--quiet",
+            "--out",
+            s(&bake_file),
+        ])
+        .output()
+        .expect("spawn");
+    assert!(
+        baked.status.success(),
+        "{}",
+        String::from_utf8_lossy(&baked.stderr)
+    );
+    let png = dir.path().join("relit.png");
+    let p = s(&png);
+    let b = s(&bake_file);
+    fails(
+        RELIGHT,
+        &[b, "--set", "nosuch.kd=1", "--out", p],
+        &["nosuch"],
+        &png,
+    );
+    fails(
+        RELIGHT,
+        &[b, "--set", "bunny.kd", "--out", p],
+        &["bunny.kd"],
+        &png,
+    );
+    fails(
+        RELIGHT,
+        &[b, "--set", "bunny.shininess=abc", "--out", p],
+        &["abc"],
+        &png,
+    );
+    let missing = dir.path().join("missing.prtbake");
+    fails(
+        RELIGHT,
+        &[s(&missing), "--out", p],
+        &["missing.prtbake"],
+        &png,
+    );
+    let mut bytes = std::fs::read(&bake_file).expect("read");
+    let n = bytes.len();
+    bytes[n - 9] ^= 0x10;
+    let corrupt = dir.path().join("corrupt.prtbake");
+    std::fs::write(&corrupt, &bytes).expect("write");
+    fails(
+        RELIGHT,
+        &[s(&corrupt), "--out", p],
+        &["corrupt.prtbake"],
+        &png,
+    );
+    let cut = dir.path().join("cut.prtbake");
+    std::fs::write(&cut, &bytes[..n / 2]).expect("write");
+    fails(RELIGHT, &[s(&cut), "--out", p], &["cut.prtbake"], &png);
+}
+
+#[test]
+fn reference_refuses_bad_input() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let exr = dir.path().join("ref.exr");
+    let config = scenes().join("cornell/bake.toml");
+    let small = [
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--spp",
+        "1",
+        "--out",
+        s(&exr),
+    ];
+    let run = |args: &[&str], expect: &[&str]| {
+        let mut a = args.to_vec();
+        a.extend(small);
+        fails(REFERENCE, &a, expect, &exr);
+    };
+    run(&[s(&config), "--set", "nosuch.kd=1"], &["nosuch"]);
+    run(&[s(&config), "--set", "bunny=1"], &["bunny=1"]);
+    run(&[s(&dir.path().join("missing.toml"))], &["missing.toml"]);
+}
