@@ -2,10 +2,23 @@
 //! and the error line. The tools themselves (`src/bin/`) only parse arguments and call the
 //! libraries.
 
+use std::process::ExitCode;
 use std::sync::Mutex;
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use prt_bake::progress::Progress;
+
+/// A tool's exit: success, or one `error: ...` line on stderr (the error and its causes, see
+/// `prt_formats::describe_error`) and a failure code.
+pub fn exit_code(result: anyhow::Result<()>) -> ExitCode {
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {}", prt_formats::describe_error(e.as_ref()));
+            ExitCode::FAILURE
+        }
+    }
+}
 
 /// Shows a library's progress on stderr: a bar per stage (hidden when stderr is not a
 /// terminal), notes and warnings as lines. `quiet` shows warnings only.

@@ -75,13 +75,7 @@ struct BakeArgs {
 }
 
 fn main() -> ExitCode {
-    match run(Cli::parse()) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {}", prt_formats::describe_error(e.as_ref()));
-            ExitCode::FAILURE
-        }
-    }
+    prt_cli::exit_code(run(Cli::parse()))
 }
 
 fn run(cli: Cli) -> Result<()> {

@@ -43,13 +43,7 @@ struct Args {
 }
 
 fn main() -> ExitCode {
-    match run(Args::parse()) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {}", prt_formats::describe_error(e.as_ref()));
-            ExitCode::FAILURE
-        }
-    }
+    prt_cli::exit_code(run(Args::parse()))
 }
 
 fn run(args: Args) -> Result<()> {
