@@ -1,0 +1,8 @@
+//! The crate's integration tests, one module per concern, compiled as one test binary (one
+//! link instead of one per file keeps CI's build short).
+
+mod accel;
+mod basis;
+mod brdf;
+mod render_analytic;
+mod scene_loading;

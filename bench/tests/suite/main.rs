@@ -1,0 +1,5 @@
+//! The crate's integration tests, one module per concern, compiled as one test binary (one
+//! link instead of one per file keeps CI's build short).
+
+mod basis;
+mod pixel;

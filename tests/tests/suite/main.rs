@@ -1,0 +1,11 @@
+//! The crate's integration tests, one module per concern, compiled as one test binary (one
+//! link instead of one per file keeps CI's build short).
+
+mod allocation;
+mod convergence;
+mod pixel_behaviour;
+mod pixel_exact;
+mod reproducible;
+mod runtime_compressed;
+mod runtime_kernels;
+mod runtime_threads;
