@@ -298,7 +298,7 @@ fn sampled_histogram_matches_pdf() {
 }
 
 /// Prints the Blinn-Phong albedo table of docs/brdf.md:
-/// `cargo test -p prt-bake --test brdf -- --ignored --nocapture print_blinn_phong_albedo`.
+/// `cargo test -p prt-bake --test suite -- --ignored --nocapture print_blinn_phong_albedo`.
 #[test]
 #[ignore]
 fn print_blinn_phong_albedo() {

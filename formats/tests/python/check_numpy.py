@@ -3,7 +3,7 @@ and that its checksums follow docs/format.md.
 
 Run by the ignored Rust test `python_numpy_reads_bake_files` (formats/tests/python_compat.rs):
     python3 -m venv /tmp/prt-pyenv && /tmp/prt-pyenv/bin/pip install safetensors numpy
-    PRT_PYTHON=/tmp/prt-pyenv/bin/python cargo test -p prt-formats --test python_compat -- --ignored
+    PRT_PYTHON=/tmp/prt-pyenv/bin/python cargo test -p prt-formats --test suite python_compat -- --ignored
 Usage: check_numpy.py BAKE_FILE
 """
 

@@ -7,7 +7,7 @@
 //!
 //! ```text
 //! python3 -m venv /tmp/prt-pyenv && /tmp/prt-pyenv/bin/pip install safetensors numpy
-//! PRT_PYTHON=/tmp/prt-pyenv/bin/python cargo test -p prt-formats --test python_compat -- --ignored
+//! PRT_PYTHON=/tmp/prt-pyenv/bin/python cargo test -p prt-formats --test suite python_compat -- --ignored
 //! ```
 
 use std::path::Path;
