@@ -96,6 +96,9 @@ fn path_text(path: &Path, folder: &Path) -> String {
     if p.is_absolute() {
         // Keep absolute paths as the OS writes them.
         p.to_string_lossy().into_owned()
+    } else if parts.is_empty() {
+        // The folder itself (`scene = "."`): an empty string would not parse back.
+        ".".to_owned()
     } else {
         parts.join("/")
     }

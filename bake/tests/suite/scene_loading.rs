@@ -1260,6 +1260,15 @@ fn assert_roundtrip(c: &BakeConfig) {
     assert_eq!(back.to_toml(), text);
 }
 
+/// Found by fuzzing (`prt-fuzz config`): a path naming the config's own folder was written
+/// back as `""`, which the parser refuses.
+#[test]
+fn roundtrip_keeps_a_path_naming_the_config_folder() {
+    let c = BakeConfig::parse("scene = \".\"\noutput = \"./\"", "/scenes/x/bake.toml").unwrap();
+    assert_eq!(c.scene_path, PathBuf::from("/scenes/x"));
+    assert_roundtrip(&c);
+}
+
 #[test]
 fn input_folder_means_its_bake_toml() {
     let r = input::resolve(&scenes_dir().join("cornell")).unwrap();
