@@ -140,7 +140,7 @@ pub struct Scene {
     pub lights: Vec<PunctualLight>,
     pub camera: Camera,
     pub environment: Environment,
-    /// Triangles dropped on load because they were degenerate or non-finite.
+    /// Triangles dropped on load because they were degenerate, non-finite or beyond +-1e15 m.
     pub skipped_triangles: usize,
 }
 

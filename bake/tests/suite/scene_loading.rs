@@ -666,6 +666,31 @@ fn nan_and_degenerate_triangles_are_skipped_and_counted() {
     assert!(warnings[0].contains("skipped 3"), "{warnings:?}");
 }
 
+/// Found by fuzzing (`prt-fuzz gltf`): one finite vertex near f32::MAX among a thousand
+/// triangles made the BVH builder (obvhs) panic. The loader drops such triangles like
+/// non-finite ones, so every scene it returns can be traced.
+#[test]
+fn triangles_beyond_the_coordinate_limit_are_skipped() {
+    let dir = TempDir::new("huge");
+    let mut doc = Doc::new();
+    let mut pos = Vec::new();
+    for i in 0..1000 {
+        let (x, y) = ((i % 32) as f32 * 0.1, (i / 32) as f32 * 0.1);
+        pos.extend([x, y, 0.0, x + 0.1, y, 0.0, x, y + 0.1, 0.0]);
+    }
+    pos[4] = 2e38;
+    pos[12] = 1.1e15;
+    doc.mesh(&pos, None, None);
+    doc.write_embedded(&dir);
+    let (scene, warnings) = load_with_warnings(&dir.config("")).unwrap();
+    check_invariants(&scene);
+    assert_eq!(scene.skipped_triangles, 2);
+    assert_eq!(scene.triangles.len(), 998);
+    assert!(warnings[0].contains("skipped 2"), "{warnings:?}");
+    let accel = prt_bake::accel::Accel::build(&scene);
+    assert_eq!(accel.triangle_count(), 998);
+}
+
 #[test]
 fn supplied_normals_are_transformed_and_bad_ones_repaired() {
     let dir = TempDir::new("normals");

@@ -13,6 +13,16 @@ use super::Loader;
 use crate::scene::error::MeshError;
 use crate::scene::SceneError;
 
+/// Largest accepted vertex coordinate magnitude, in metres (far beyond any real scene). Sums
+/// and products of coordinates (bounding boxes, areas, ray-triangle determinants) must stay
+/// finite in f32: a vertex near f32::MAX made the BVH builder panic (found by fuzzing).
+const MAX_COORDINATE: f32 = 1e15;
+
+/// Whether a world-space vertex is finite and within [`MAX_COORDINATE`].
+fn in_range(p: Vec3) -> bool {
+    p.is_finite() && p.abs().max_element() <= MAX_COORDINATE
+}
+
 /// A mesh instance found while walking the node tree.
 pub(super) struct MeshInstance<'a> {
     pub mesh: gltf::Mesh<'a>,
@@ -223,9 +233,9 @@ impl Loader<'_> {
                 }
                 let (p0, p1, p2) = (wpos[a], wpos[b], wpos[c]);
                 let cross = (p1 - p0).cross(p2 - p0);
-                let ok = p0.is_finite()
-                    && p1.is_finite()
-                    && p2.is_finite()
+                let ok = in_range(p0)
+                    && in_range(p1)
+                    && in_range(p2)
                     && cross.is_finite()
                     && cross.length_squared() > 0.0
                     && cross.normalize_or_zero() != Vec3::ZERO;

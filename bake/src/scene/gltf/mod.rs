@@ -8,8 +8,9 @@
 //! - Missing normals are generated *flat* (one normal per triangle, vertices unshared), which is
 //!   what the glTF spec mandates. Supplied normals that are zero or non-finite are replaced by
 //!   the area-weighted average of the adjacent triangles' normals.
-//! - Degenerate (zero-area) and non-finite triangles are skipped, counted in
-//!   [`Scene::skipped_triangles`] and reported once; out-of-range indices are an error.
+//! - Degenerate (zero-area) and non-finite triangles, and triangles with a coordinate beyond
+//!   +-1e15 m, are skipped, counted in [`Scene::skipped_triangles`] and reported once;
+//!   out-of-range indices are an error.
 //! - Missing TEXCOORD_0 reads as (0, 0); non-finite UVs are set to (0, 0).
 //! - Punctual lights are taken radiometrically: 1 cd = 1 W/sr, 1 lux = 1 W/m^2.
 
@@ -312,7 +313,7 @@ impl Loader<'_> {
         }
         if geo.skipped > 0 {
             self.warnings.push(format!(
-                "{}: skipped {} degenerate or non-finite triangle(s)",
+                "{}: skipped {} degenerate, non-finite or out-of-range triangle(s)",
                 self.path.display(),
                 geo.skipped
             ));
