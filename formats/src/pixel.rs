@@ -262,14 +262,29 @@ pub fn slot_coefficients(
         .collect()
 }
 
-/// Number of values per pixel of a group.
+/// Number of values per pixel of a group (saturating at `usize::MAX`).
+///
+/// The cost does not grow with `reflections` (read from a file, it may be absurd): the sum
+/// 1 + J + J^2 + ... stops once its terms vanish (J = 0) or it saturates (J >= 2, within 64
+/// terms), and J = 1 is summed in closed form.
 pub fn row_len(slots: usize, active: usize, reflections: usize, channels: usize) -> usize {
-    let mut per_b0 = 0usize;
-    let mut pow = 1usize;
-    for _ in 0..reflections {
-        per_b0 += pow;
-        pow = pow.saturating_mul(active);
-    }
+    let per_b0 = match active {
+        _ if reflections == 0 => 0,
+        0 => 1,
+        1 => reflections,
+        _ => {
+            let mut sum = 0usize;
+            let mut pow = 1usize;
+            for _ in 0..reflections {
+                sum = sum.saturating_add(pow);
+                if sum == usize::MAX {
+                    break;
+                }
+                pow = pow.saturating_mul(active);
+            }
+            sum
+        }
+    };
     slots.saturating_mul(per_b0).saturating_mul(channels)
 }
 
@@ -300,6 +315,10 @@ pub fn group_weights(
     let mut e = 0usize;
     let mut pow = 1usize;
     for depth in 0..reflections {
+        if pow == 0 {
+            // No active slots: no deeper terms (and no work for an absurd `reflections`).
+            break;
+        }
         for b0 in 0..material.slots.len() {
             let c0 = coeff.get(base + b0).copied().unwrap_or([0.0; 3]);
             for idx in 0..pow {
@@ -400,6 +419,29 @@ mod tests {
         let c = slot_coefficients(&mt, &p, &[0.1]);
         assert_eq!(c[0], p.kd);
         assert!(close(c[1], [0.1, 0.2, 0.3]), "{:?}", c[1]);
+    }
+
+    /// Found by fuzzing (`prt-fuzz bake-file`): `reflections` = 2^31 - 1 in a file's metadata
+    /// made `row_len` and `group_weights` loop 2^31 times (a hang in `Relighter::render`).
+    #[test]
+    fn absurd_reflections_cost_no_more_than_the_row() {
+        assert_eq!(row_len(1, 0, usize::MAX, 1), 1);
+        assert_eq!(row_len(2, 1, 1 << 40, 3), 6 << 40);
+        assert_eq!(row_len(1, 2, usize::MAX, 1), usize::MAX);
+        assert_eq!(row_len(1, 3, 4, 1), 1 + 3 + 9 + 27);
+        assert_eq!(row_len(1, 3, 0, 1), 0);
+        let m = material(vec![SlotKind::Kd], false);
+        let g = GroupMeta {
+            material: 0,
+            pixels: 1,
+            slots: 1,
+            active: vec![],
+            row_len: 1,
+            compressed_rank: None,
+            scale: 1.0,
+        };
+        let w = group_weights(&g, &m, &[[0.5; 3]], i32::MAX as usize, 1, [1.0; 3]);
+        assert_eq!(w, [0.5; 3]);
     }
 
     #[test]

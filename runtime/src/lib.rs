@@ -21,6 +21,9 @@ use prt_formats::pixel::{
 use prt_formats::{BakeFile, Dtype, FormatError};
 use rayon::prelude::*;
 
+#[cfg(test)]
+mod tests;
+
 /// Why a bake file could not be opened for relighting, or an edit or render was refused.
 #[derive(Debug, thiserror::Error)]
 pub enum RuntimeError {
@@ -177,6 +180,11 @@ impl Relighter {
                 )));
             }
             let p = gm.pixels as usize;
+            if p == 0 {
+                // The baker writes groups of visible materials only. An empty group would hold
+                // no data however long its row, while rendering allocates and walks the row.
+                return Err(schema(format!("group {g} has no pixels")));
+            }
             let pix = file.tensor(&names::pixels(g))?;
             pix.require_shape(&[p])?;
             if pix.as_u32()?.iter().any(|&i| i as usize >= w * h) {

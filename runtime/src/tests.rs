@@ -1,0 +1,111 @@
+//! Bake files that are valid containers but absurd per-pixel bakes, found by fuzzing
+//! (`prt-fuzz bake-file`, docs/fuzzing.md): the runtime refuses them, or relights them at a
+//! cost proportional to the file; it never hangs or allocates without bound.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use prt_formats::pixel::{
+    BakeStats, CameraMeta, GroupMeta, MaterialMeta, PixelBakeMeta, Precision, SlotKind,
+    PIXEL_SCHEMA_VERSION,
+};
+use prt_formats::{BakeWriter, Family};
+
+use crate::{Relighter, RuntimeError, Variant};
+
+/// A 1 x 1 gray bake of one diffuse material (Kd 0.5) seen by its one pixel, direct light only.
+fn meta() -> PixelBakeMeta {
+    PixelBakeMeta {
+        pixel_schema_version: PIXEL_SCHEMA_VERSION,
+        width: 1,
+        height: 1,
+        spp: 1,
+        reflections: 1,
+        seed: 0,
+        channels: 1,
+        tint: [1.0; 3],
+        precision: Precision::F32,
+        materials: vec![MaterialMeta {
+            name: "m".into(),
+            editable: true,
+            family: Family::Diffuse,
+            kd: [0.5; 3],
+            ks: [0.0; 3],
+            param: 0.0,
+            textured: false,
+            slots: vec![SlotKind::Kd],
+            slot_offset: 0,
+            basis: None,
+        }],
+        bases: vec![],
+        groups: vec![GroupMeta {
+            material: 0,
+            pixels: 1,
+            slots: 1,
+            active: vec![],
+            row_len: 1,
+            compressed_rank: None,
+            scale: 1.0,
+        }],
+        camera: CameraMeta {
+            position: [0.0; 3],
+            forward: [0.0, 0.0, -1.0],
+            up: [0.0, 1.0, 0.0],
+            yfov: 1.0,
+        },
+        stats: BakeStats::default(),
+    }
+}
+
+/// Writes `meta` with a transfer tensor of `row_len` ones per pixel (`pixels` of them).
+fn write(name: &str, meta: &PixelBakeMeta, row_len: usize, pixels: &[u32]) -> PathBuf {
+    let path = std::env::temp_dir().join(format!(
+        "prt-runtime-test-{}-{name}.prtbake",
+        std::process::id()
+    ));
+    let t = vec![1.0f32; row_len * pixels.len()];
+    let mut w = BakeWriter::new();
+    w.set_metadata(meta.to_json());
+    w.add_f32("emission", &[1, 1, 3], &[0.0; 3]).unwrap();
+    w.add_u32("g0.pixels", &[pixels.len()], pixels).unwrap();
+    w.add_f32("g0.t", &[row_len, pixels.len()], &t).unwrap();
+    w.write_atomic(&path).unwrap();
+    path
+}
+
+/// `reflections` = 2^31 - 1 with no active slots: the row is one value, and relighting it
+/// used to loop 2^31 times.
+#[test]
+fn absurd_reflections_relight_at_the_cost_of_the_row() {
+    let mut m = meta();
+    m.reflections = i32::MAX as u32;
+    let path = write("reflections", &m, 1, &[0]);
+    let start = Instant::now();
+    let frame = Relighter::open(&path)
+        .and_then(|r| r.render(Variant::Full))
+        .unwrap();
+    let seconds = start.elapsed().as_secs_f64();
+    let _ = std::fs::remove_file(&path);
+    assert_eq!(frame.pixels, [[0.5; 3]]);
+    assert!(seconds < 1.0, "{seconds} s");
+}
+
+/// A group of no pixels holds no data whatever its row length (here 2^32 - 1: two active
+/// slots, 32 reflections); rendering would allocate its weights, 48 GiB.
+#[test]
+fn groups_without_pixels_are_refused() {
+    let mut m = meta();
+    m.reflections = 32;
+    m.groups[0].active = vec![0, 0];
+    m.groups[0].row_len = u32::MAX;
+    m.groups[0].pixels = 0;
+    let path = write("empty-group", &m, u32::MAX as usize, &[]);
+    let err = Relighter::open(&path).err();
+    let _ = std::fs::remove_file(&path);
+    match err {
+        Some(RuntimeError::Schema { reason, .. }) => {
+            assert!(reason.contains("no pixels"), "{reason}")
+        }
+        other => panic!("expected a schema error, got {other:?}"),
+    }
+}
