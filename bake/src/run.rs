@@ -15,7 +15,7 @@ use crate::config::{BakeConfig, Mode};
 use crate::error::BakeError;
 use crate::integrator::Integrator;
 use crate::lights::LightSet;
-use crate::pixel::{self, BakeTimings, PixelBakeOptions, Precision, SlotLayout};
+use crate::pixel::{self, BakeTimings, PixelBakeOptions, Precision, SlotPlan};
 use crate::progress::Progress;
 use crate::scene::Scene;
 use crate::units::human_bytes;
@@ -89,26 +89,40 @@ fn count_for_target(
     Ok(nb)
 }
 
-/// Builds one basis per family used by an editable glossy material, sized by `count`.
-pub fn build_bases(
+/// The families of the scene's editable glossy materials, each with its number of basis
+/// BRDFs (an error target runs the selection here, which builds trial bases).
+pub fn basis_counts(
     scene: &Scene,
     count: BasisCount,
     progress: &dyn Progress,
-) -> Result<Vec<BrdfBasis>, BakeError> {
+) -> Result<Vec<(Family, usize)>, BakeError> {
     let mut families: Vec<Family> = Vec::new();
     for m in &scene.materials {
         if m.editable && m.brdf.family != Family::Diffuse && !families.contains(&m.brdf.family) {
             families.push(m.brdf.family);
         }
     }
+    families
+        .into_iter()
+        .map(|f| {
+            let n = match count {
+                BasisCount::Fixed(n) => n,
+                BasisCount::ErrorTarget(t) => count_for_target(f, t, progress)?,
+                BasisCount::Default => f.default_basis_count(),
+            };
+            Ok((f, n))
+        })
+        .collect()
+}
+
+/// Builds one basis per (family, size).
+pub fn build_counted_bases(
+    counts: &[(Family, usize)],
+    progress: &dyn Progress,
+) -> Result<Vec<BrdfBasis>, BakeError> {
     let mut out = Vec::new();
-    for f in families {
+    for &(f, count) in counts {
         let start = Instant::now();
-        let count = match count {
-            BasisCount::Fixed(n) => n,
-            BasisCount::ErrorTarget(t) => count_for_target(f, t, progress)?,
-            BasisCount::Default => f.default_basis_count(),
-        };
         let basis_err = |message: String| BakeError::Basis { family: f, message };
         let cfg = BasisConfig::new(f, count).map_err(|e| basis_err(e.to_string()))?;
         let built = BasisBuilder::new(cfg)
@@ -124,6 +138,15 @@ pub fn build_bases(
         out.push(basis);
     }
     Ok(out)
+}
+
+/// Builds one basis per family used by an editable glossy material, sized by `count`.
+pub fn build_bases(
+    scene: &Scene,
+    count: BasisCount,
+    progress: &dyn Progress,
+) -> Result<Vec<BrdfBasis>, BakeError> {
+    build_counted_bases(&basis_counts(scene, count, progress)?, progress)
 }
 
 /// Command-line settings of a per-pixel bake on top of the config.
@@ -144,7 +167,12 @@ pub struct PixelRunSettings {
 pub struct PixelRunSummary {
     pub output: PathBuf,
     pub file_bytes: u64,
+    /// The estimated peak memory ([`pixel::MemoryEstimate::bytes`]).
     pub estimated_bytes: u64,
+    /// Its parts: held throughout, the basis build's peak, the trace and write's peak.
+    pub estimated_resident_bytes: u64,
+    pub estimated_basis_bytes: u64,
+    pub estimated_trace_bytes: u64,
     pub seconds: f64,
     pub basis_seconds: f64,
     pub timings: BakeTimings,
@@ -178,9 +206,8 @@ pub fn run_pixel(
         (None, None, Some(t)) => BasisCount::ErrorTarget(t as f64),
         (None, None, None) => BasisCount::Default,
     };
-    let bases = build_bases(scene, count, progress)?;
-    let basis_seconds = start.elapsed().as_secs_f64();
-    let layout = SlotLayout::new(scene, &bases)?;
+    let counts = basis_counts(scene, count, progress)?;
+    let plan = SlotPlan::new(scene, &counts)?;
     let opts = PixelBakeOptions {
         width: s.width.unwrap_or(config.width),
         height: s.height.unwrap_or(config.height),
@@ -202,12 +229,12 @@ pub fn run_pixel(
         opts.width,
         opts.height,
     );
-    let est = pixel::estimate_memory(&integ, &layout, opts.reflections as usize);
-    let mut report = format!("allocation ({} global slots):", layout.total_slots);
-    for r in &layout.reasons {
+    let est = pixel::estimate_memory(&integ, &plan, opts.reflections as usize, opts.precision);
+    let mut report = format!("allocation ({} global slots):", plan.total_slots);
+    for r in &plan.reasons {
         report.push_str(&format!("\n  {r}"));
     }
-    for (m, (&p, &v)) in layout
+    for (m, (&p, &v)) in plan
         .materials
         .iter()
         .zip(est.pixels_per_material.iter().zip(&est.values_per_pixel))
@@ -217,8 +244,11 @@ pub fn run_pixel(
         }
     }
     report.push_str(&format!(
-        "\nmemory estimate: {} (dense accumulation; the file keeps only slots that carry light)",
-        human_bytes(est.bytes)
+        "\nmemory estimate: {} peak ({} resident + the larger of basis build {} and trace {})",
+        human_bytes(est.bytes),
+        human_bytes(est.resident_bytes),
+        human_bytes(est.basis_bytes),
+        human_bytes(est.trace_bytes),
     ));
     progress.note(&report);
     if let Some(limit) = opts.max_memory {
@@ -229,6 +259,10 @@ pub fn run_pixel(
             });
         }
     }
+    let basis_start = Instant::now();
+    let bases = build_counted_bases(&counts, progress)?;
+    let basis_seconds = basis_start.elapsed().as_secs_f64();
+    let layout = plan.with_bases(&bases)?;
     let bake = pixel::bake_with(&integ, &layout, &opts, Some(progress))?;
     let output = s.output.clone().unwrap_or_else(|| config.output.clone());
     let file_bytes = pixel::write_bake_file(&bake, &output, opts.precision)?;
@@ -236,6 +270,9 @@ pub fn run_pixel(
         output,
         file_bytes,
         estimated_bytes: est.bytes,
+        estimated_resident_bytes: est.resident_bytes,
+        estimated_basis_bytes: est.basis_bytes,
+        estimated_trace_bytes: est.trace_bytes,
         seconds: start.elapsed().as_secs_f64(),
         basis_seconds,
         timings: bake.timings,

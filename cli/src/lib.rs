@@ -93,6 +93,15 @@ impl Progress for Stderr {
     }
 }
 
+/// The process's peak resident memory so far (Linux `VmHWM`), for the tools' `--json`
+/// output; None where the platform does not report it.
+pub fn peak_resident_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
 /// Parses sizes like `512M`, `4G` or `1000000` (bytes); suffixes are binary (`4G` = 4 GiB).
 pub fn parse_size(s: &str) -> Result<u64, String> {
     let t = s.trim();

@@ -69,11 +69,12 @@ pub fn svd_thin(a: MatRef<'_, f64>) -> Result<SvdParts, BasisError> {
     Ok((u, s, v))
 }
 
-/// The `min(m, n) x n` upper-triangular factor R of `A = Q R` (no pivoting).
-pub fn qr_r(a: MatRef<'_, f64>) -> Mat<f64> {
-    let (m, n) = a.shape();
+/// The `min(m, n) x n` upper-triangular factor R of `A = Q R` (no pivoting). Takes `A` by
+/// value and factors it in place: the basis build calls this on its largest matrix, and a copy
+/// would add a quarter to the bake's peak memory.
+pub fn qr_r(mut w: Mat<f64>) -> Mat<f64> {
+    let (m, n) = w.shape();
     let k = m.min(n);
-    let mut w = a.to_owned();
     if k == 0 {
         return Mat::zeros(k, n);
     }
@@ -165,7 +166,7 @@ mod tests {
             ((i * 7 + j * 3) % 11) as f64 - 5.0 + (i as f64) * 0.01
         });
         let (_, s, _) = svd_thin(a.as_ref()).unwrap();
-        let r = qr_r(a.as_ref());
+        let r = qr_r(a.clone());
         let (_, s2, _) = svd_thin(r.as_ref()).unwrap();
         for (x, y) in s.iter().zip(&s2) {
             assert!((x - y).abs() < 1e-9 * s[0], "{x} {y}");

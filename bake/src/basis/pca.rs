@@ -270,7 +270,7 @@ impl PcaBuilder {
             eta[j] *= (prior[j] * p as f64).sqrt();
         }
         let m = Mat::from_fn(n, p, |i, j| sw[i] * resid[(i, j)] * eta[j]);
-        let c = qr_r(m.as_ref());
+        let c = qr_r(m);
         Ok(PcaBuilder {
             grid,
             options,

@@ -13,6 +13,16 @@ pub enum PixelError {
         /// Its family.
         family: prt_formats::Family,
     },
+    /// A basis was built with another size than the allocation planned for its family.
+    #[error("the {family} basis has {built} BRDFs but the allocation planned {planned}")]
+    BasisSize {
+        /// The family.
+        family: prt_formats::Family,
+        /// Basis BRDFs the allocation planned.
+        planned: usize,
+        /// Basis BRDFs the basis has.
+        built: usize,
+    },
     /// A material would need more slots than a path vertex can carry.
     #[error("material '{material}' needs {slots} slots; at most {max} are supported (use fewer basis BRDFs)")]
     TooManySlots {

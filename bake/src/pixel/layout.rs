@@ -45,14 +45,35 @@ fn common_chromaticity(colours: &[Vec3]) -> Option<Vec3> {
     Some(common.unwrap_or(Vec3::ONE))
 }
 
+/// The slot allocation of a scene before its bases are built: enough to size the bake (the
+/// memory estimate and `--max-memory` come before the expensive basis build).
+#[derive(Clone, Debug)]
+pub struct SlotPlan {
+    pub materials: Vec<MaterialMeta>,
+    /// The basis each `MaterialMeta::basis` index names: its family and size.
+    pub basis_families: Vec<(Family, usize)>,
+    pub total_slots: usize,
+    pub channels: usize,
+    pub tint: Vec3,
+    pub reasons: Vec<String>,
+}
+
 impl SlotLayout {
     /// Slots per material: editable glossy materials get their family's basis (which must be
     /// in `bases`), editable diffuse ones a single Kd slot, fixed ones a Kd slot and/or a lobe
     /// slot (none for a black material). A material with a diffuse texture keeps Kd as its own
     /// slot (the texture is baked into it); otherwise Kd folds into basis 0.
     pub fn new(scene: &Scene, bases: &[BrdfBasis]) -> Result<SlotLayout, PixelError> {
+        let counts: Vec<(Family, usize)> = bases.iter().map(|b| (b.family, b.num_bases)).collect();
+        SlotPlan::new(scene, &counts)?.with_bases(bases)
+    }
+}
+
+impl SlotPlan {
+    /// As [`SlotLayout::new`], from the number of basis BRDFs each family will get.
+    pub fn new(scene: &Scene, counts: &[(Family, usize)]) -> Result<SlotPlan, PixelError> {
         let mut materials = Vec::with_capacity(scene.materials.len());
-        let mut used_bases: Vec<BrdfBasis> = Vec::new();
+        let mut used_bases: Vec<(Family, usize)> = Vec::new();
         let mut reasons = Vec::new();
         let mut offset = 0u32;
         for m in &scene.materials {
@@ -60,16 +81,16 @@ impl SlotLayout {
             let textured = m.base_color_texture.is_some();
             let mut basis_index = None;
             let (slots, reason) = if m.editable && b.family != Family::Diffuse {
-                let Some(basis) = bases.iter().find(|x| x.family == b.family) else {
+                let Some(&(family, num_bases)) = counts.iter().find(|x| x.0 == b.family) else {
                     return Err(PixelError::MissingBasis {
                         material: m.name.clone(),
                         family: b.family,
                     });
                 };
-                let idx = match used_bases.iter().position(|x| x.family == basis.family) {
+                let idx = match used_bases.iter().position(|x| x.0 == family) {
                     Some(i) => i,
                     None => {
-                        used_bases.push(basis.clone());
+                        used_bases.push((family, num_bases));
                         used_bases.len() - 1
                     }
                 };
@@ -78,11 +99,11 @@ impl SlotLayout {
                 if textured {
                     s.push(SlotKind::Kd);
                 }
-                s.extend((0..basis.num_bases as u32).map(SlotKind::Basis));
+                s.extend((0..num_bases as u32).map(SlotKind::Basis));
                 let why = format!(
                     "editable {}: {} basis BRDFs{}",
                     b.family.name(),
-                    basis.num_bases,
+                    num_bases,
                     if textured {
                         " + a textured Kd slot"
                     } else {
@@ -178,16 +199,49 @@ impl SlotLayout {
                 "a diffuse texture is baked into slots"
             }
         ));
-        Ok(SlotLayout {
+        Ok(SlotPlan {
             total_slots: offset as usize,
             materials,
-            bases: used_bases,
+            basis_families: used_bases,
             channels,
             tint,
             reasons,
         })
     }
 
+    /// The layout with its bases: one per planned family, of the planned size.
+    pub fn with_bases(self, bases: &[BrdfBasis]) -> Result<SlotLayout, PixelError> {
+        let mut used = Vec::with_capacity(self.basis_families.len());
+        for &(family, num_bases) in &self.basis_families {
+            let Some(basis) = bases.iter().find(|b| b.family == family) else {
+                let material = self
+                    .materials
+                    .iter()
+                    .find(|m| m.editable && m.family == family)
+                    .map_or_else(String::new, |m| m.name.clone());
+                return Err(PixelError::MissingBasis { material, family });
+            };
+            if basis.num_bases != num_bases {
+                return Err(PixelError::BasisSize {
+                    family,
+                    planned: num_bases,
+                    built: basis.num_bases,
+                });
+            }
+            used.push(basis.clone());
+        }
+        Ok(SlotLayout {
+            materials: self.materials,
+            bases: used,
+            total_slots: self.total_slots,
+            channels: self.channels,
+            tint: self.tint,
+            reasons: self.reasons,
+        })
+    }
+}
+
+impl SlotLayout {
     /// RGB coefficient of every global slot for the materials' baked (starting) parameters,
     /// with `overrides` replacing some materials' parameters.
     pub fn coefficients(&self, overrides: &[(usize, MaterialParams)]) -> Vec<[f32; 3]> {

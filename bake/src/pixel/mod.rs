@@ -24,7 +24,7 @@ mod write;
 pub use bake::{bake, bake_with, BakeTimings, GroupData, PixelBake, PixelBakeOptions};
 pub use compress::{pca_rows, Compressed};
 pub use error::PixelError;
-pub use layout::SlotLayout;
+pub use layout::{SlotLayout, SlotPlan};
 pub use memory::{estimate_memory, MemoryEstimate};
 pub use model::BakeModel;
 pub use prt_formats::pixel::{names, Precision};

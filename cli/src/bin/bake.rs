@@ -120,7 +120,14 @@ fn bake(input: &std::path::Path, a: &BakeArgs) -> Result<()> {
     };
     let summary = run_pixel(&config, &scene, &settings, &progress)?;
     if a.json {
-        println!("{}", serde_json::to_string(&summary)?);
+        let mut out = serde_json::to_value(&summary)?;
+        if let Some(o) = out.as_object_mut() {
+            o.insert(
+                "peak_resident_bytes".into(),
+                prt_cli::peak_resident_bytes().into(),
+            );
+        }
+        println!("{out}");
     } else {
         eprintln!(
             "baked {} in {:.2} s ({:.2} Mrays/s): {}",

@@ -157,6 +157,16 @@ fn slots_that_never_carry_light_are_not_stored() {
     );
 }
 
+/// Records the notes a bake reports, to see how far it got.
+#[derive(Default)]
+struct Notes(std::sync::Mutex<Vec<String>>);
+
+impl prt_bake::progress::Progress for Notes {
+    fn note(&self, text: &str) {
+        self.0.lock().expect("notes").push(text.to_string());
+    }
+}
+
 #[test]
 fn a_bake_past_max_memory_is_refused_before_it_starts() {
     let config_path =
@@ -173,12 +183,23 @@ fn a_bake_past_max_memory_is_refused_before_it_starts() {
         basis_count: Some(2),
         ..Default::default()
     };
-    let err = run_pixel(&config, &scene, &settings, &prt_bake::progress::Silent)
+    let notes = Notes::default();
+    let err = run_pixel(&config, &scene, &settings, &notes)
         .expect_err("must refuse")
         .to_string();
     assert!(err.contains("--max-memory"), "{err}");
     assert!(
         !out.exists(),
         "nothing may be written when the bake is refused"
+    );
+    // Refused before the expensive work: the estimate was reported, no basis was built.
+    let notes = notes.0.into_inner().expect("notes");
+    assert!(
+        notes.iter().any(|n| n.contains("memory estimate")),
+        "the estimate is reported before refusing: {notes:?}"
+    );
+    assert!(
+        !notes.iter().any(|n| n.starts_with("basis ")),
+        "a basis was built before the memory check: {notes:?}"
     );
 }
