@@ -187,9 +187,16 @@ impl Relighter {
             }
             let pix = file.tensor(&names::pixels(g))?;
             pix.require_shape(&[p])?;
-            if pix.as_u32()?.iter().any(|&i| i as usize >= w * h) {
+            let indices = pix.as_u32()?;
+            if indices.iter().any(|&i| i as usize >= w * h) {
                 return Err(schema(format!(
                     "group {g} has a pixel index outside the image"
+                )));
+            }
+            // Rendering finds each band's pixels by binary search.
+            if indices.windows(2).any(|ab| ab[0] >= ab[1]) {
+                return Err(schema(format!(
+                    "group {g}: pixel indices are not strictly ascending"
                 )));
             }
             let t = file.tensor(&names::transfer(g))?;

@@ -57,7 +57,8 @@ fn meta() -> PixelBakeMeta {
     }
 }
 
-/// Writes `meta` with a transfer tensor of `row_len` ones per pixel (`pixels` of them).
+/// Writes `meta` with a black emission and a transfer tensor of `row_len` ones per pixel
+/// (`pixels` of them).
 fn write(name: &str, meta: &PixelBakeMeta, row_len: usize, pixels: &[u32]) -> PathBuf {
     let path = std::env::temp_dir().join(format!(
         "prt-runtime-test-{}-{name}.prtbake",
@@ -66,7 +67,10 @@ fn write(name: &str, meta: &PixelBakeMeta, row_len: usize, pixels: &[u32]) -> Pa
     let t = vec![1.0f32; row_len * pixels.len()];
     let mut w = BakeWriter::new();
     w.set_metadata(meta.to_json());
-    w.add_f32("emission", &[1, 1, 3], &[0.0; 3]).unwrap();
+    let (width, height) = (meta.width as usize, meta.height as usize);
+    let emission = vec![0.0f32; width * height * 3];
+    w.add_f32("emission", &[height, width, 3], &emission)
+        .unwrap();
     w.add_u32("g0.pixels", &[pixels.len()], pixels).unwrap();
     w.add_f32("g0.t", &[row_len, pixels.len()], &t).unwrap();
     w.write_atomic(&path).unwrap();
@@ -105,6 +109,25 @@ fn groups_without_pixels_are_refused() {
     match err {
         Some(RuntimeError::Schema { reason, .. }) => {
             assert!(reason.contains("no pixels"), "{reason}")
+        }
+        other => panic!("expected a schema error, got {other:?}"),
+    }
+}
+
+/// Pixel indices out of order (here 8, 0 in a 1 x 9 image, two bands of rows): the render's
+/// binary search put pixel 0 in the second band, whose first pixel is 8, and `0 - 8` indexed
+/// the band out of bounds.
+#[test]
+fn unordered_pixel_indices_are_refused() {
+    let mut m = meta();
+    m.height = 9;
+    m.groups[0].pixels = 2;
+    let path = write("unordered", &m, 1, &[8, 0]);
+    let err = Relighter::open(&path).err();
+    let _ = std::fs::remove_file(&path);
+    match err {
+        Some(RuntimeError::Schema { reason, .. }) => {
+            assert!(reason.contains("strictly ascending"), "{reason}")
         }
         other => panic!("expected a schema error, got {other:?}"),
     }
