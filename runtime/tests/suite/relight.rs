@@ -1,0 +1,118 @@
+//! Relit frames against an independent f64 sum over the stored values, for every storage the
+//! runtime reads (f32, f16 with a scale, low rank), gray and RGB, both kernels, any thread
+//! count.
+
+use prt_formats::pixel::Precision;
+use prt_runtime::{Kernel, Relighter, Variant};
+
+use crate::synthetic::{Synthetic, H, W};
+
+/// Largest per-pixel error relative to the image's largest value (a scale-aware bound for f32
+/// sums of ~100 terms).
+fn max_rel_err(frame: &[[f32; 3]], expect: &[[f64; 3]]) -> f64 {
+    assert_eq!(frame.len(), expect.len(), "frame size");
+    let scale = expect
+        .iter()
+        .flat_map(|p| p.iter())
+        .fold(0.0f64, |m, v| m.max(v.abs()));
+    frame
+        .iter()
+        .zip(expect)
+        .flat_map(|(a, b)| (0..3).map(move |c| (a[c] as f64 - b[c]).abs()))
+        .fold(0.0, f64::max)
+        / scale
+}
+
+fn open(s: &Synthetic, precision: Precision) -> (tempfile::TempDir, Relighter) {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("synthetic.prtbake");
+    s.write(&path, precision);
+    let r = Relighter::open(&path).expect("open synthetic bake");
+    (dir, r)
+}
+
+#[test]
+fn full_frames_equal_the_plain_sum_for_f32_and_f16_gray_and_rgb() {
+    for channels in [1, 3] {
+        let s = Synthetic::new(channels, None, 11 + channels as u64);
+        for precision in [Precision::F32, Precision::F16] {
+            let (_dir, mut r) = open(&s, precision);
+            assert_eq!((r.width(), r.height()), (W, H));
+            let values = match precision {
+                Precision::F32 => None,
+                Precision::F16 => Some(s.f16_values()),
+            };
+            let expect = s.relight(&s.params(), false, values.as_deref());
+            for kernel in [Kernel::Auto, Kernel::Scalar] {
+                r.set_kernel(kernel);
+                let f = r.render(Variant::Full).expect("render");
+                assert_eq!((f.width, f.height), (W, H));
+                let err = max_rel_err(&f.pixels, &expect);
+                assert!(
+                    err < 2e-6,
+                    "channels {channels}, {precision:?}, {kernel:?}: max error {err:e}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn compressed_frames_equal_the_plain_low_rank_sum() {
+    for channels in [1, 3] {
+        let s = Synthetic::new(channels, Some(3), 5);
+        let (_dir, r) = open(&s, Precision::F32);
+        assert!(r.has_compressed());
+        let f = r.render(Variant::Compressed).expect("render compressed");
+        let err = max_rel_err(&f.pixels, &s.relight(&s.params(), true, None));
+        assert!(err < 2e-6, "channels {channels}: max error {err:e}");
+        // The full variant is still the stored rows, not the low-rank ones.
+        let full = r.render(Variant::Full).expect("render full");
+        let err = max_rel_err(&full.pixels, &s.relight(&s.params(), false, None));
+        assert!(err < 2e-6, "channels {channels}, full: max error {err:e}");
+    }
+}
+
+#[test]
+fn frames_report_the_bytes_they_read() {
+    let s = Synthetic::new(3, Some(2), 3);
+    let (_dir, r) = open(&s, Precision::F32);
+    let emission = (W * H * 3 * 4) as u64;
+    let pixels: u64 = s.groups.iter().map(|g| g.pixels.len() as u64 * 4).sum();
+    let full: u64 = s.groups.iter().map(|g| g.transfer.len() as u64 * 4).sum();
+    let low: u64 = s
+        .groups
+        .iter()
+        .map(|g| {
+            let (m, c, z) = g.compressed.as_ref().expect("compressed");
+            (m.len() + c.len() + z.len()) as u64 * 4
+        })
+        .sum();
+    let f = r.render(Variant::Full).expect("render");
+    assert_eq!(f.bytes_read, emission + pixels + full);
+    assert!(f.seconds >= 0.0 && f.seconds.is_finite());
+    let c = r.render(Variant::Compressed).expect("render");
+    assert_eq!(c.bytes_read, emission + pixels + low);
+    let (_dir16, r16) = open(&s, Precision::F16);
+    let h = r16.render(Variant::Full).expect("render");
+    assert_eq!(h.bytes_read, emission + pixels + full / 2);
+}
+
+#[test]
+fn frames_are_identical_on_any_thread_count() {
+    let s = Synthetic::new(3, Some(2), 9);
+    let (_dir, r) = open(&s, Precision::F16);
+    let render = |threads: usize, v: Variant| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("pool")
+            .install(|| r.render(v).expect("render").pixels)
+    };
+    for v in [Variant::Full, Variant::Compressed] {
+        let one = render(1, v);
+        for t in [2, 5] {
+            assert!(one == render(t, v), "{v:?}: 1 and {t} threads differ");
+        }
+    }
+}
