@@ -146,6 +146,16 @@ impl Relighter {
                 )));
             }
         }
+        // Every material, not only those seen in the image: edits and the slot coefficients
+        // read every material's basis.
+        for m in &meta.materials {
+            if m.basis.is_some_and(|b| b as usize >= bases.len()) {
+                return Err(schema(format!(
+                    "material '{}' names a missing basis",
+                    m.name
+                )));
+            }
+        }
         let nslots: usize = meta.materials.iter().map(|m| m.slots.len()).sum();
         let (w, h) = (meta.width as usize, meta.height as usize);
         file.tensor(names::EMISSION)?.require_shape(&[h, w, 3])?;
@@ -156,12 +166,6 @@ impl Relighter {
                     gm.material
                 )));
             };
-            if m.basis.is_some_and(|b| b as usize >= bases.len()) {
-                return Err(schema(format!(
-                    "material '{}' names a missing basis",
-                    m.name
-                )));
-            }
             if gm.active.iter().any(|&j| j as usize >= nslots) {
                 return Err(schema(format!(
                     "group {g} names a slot beyond the {nslots} slots"

@@ -132,3 +132,30 @@ fn unordered_pixel_indices_are_refused() {
         other => panic!("expected a schema error, got {other:?}"),
     }
 }
+
+/// A material outside every group names a basis the file does not have: the groups' checks
+/// missed it, and computing the slot coefficients (every render) indexed the bases out of
+/// bounds.
+#[test]
+fn materials_outside_the_groups_must_name_existing_bases() {
+    let mut m = meta();
+    let mut glossy = m.materials[0].clone();
+    glossy.name = "unseen".into();
+    glossy.family = Family::BlinnPhong;
+    glossy.slots = vec![SlotKind::Basis(0)];
+    glossy.slot_offset = 1;
+    glossy.basis = Some(0);
+    m.materials.push(glossy);
+    let path = write("missing-basis", &m, 1, &[0]);
+    let err = Relighter::open(&path).err();
+    let _ = std::fs::remove_file(&path);
+    match err {
+        Some(RuntimeError::Schema { reason, .. }) => {
+            assert!(
+                reason.contains("'unseen' names a missing basis"),
+                "{reason}"
+            )
+        }
+        other => panic!("expected a schema error, got {other:?}"),
+    }
+}
