@@ -136,14 +136,10 @@ impl Relighter {
             )));
         }
         let bases: Vec<BrdfBasis> = meta.bases.iter().map(|b| b.basis.clone()).collect();
-        for b in &bases {
-            if b.param_samples.is_empty()
-                || b.coefficients.len() != b.param_samples.len() * b.num_bases
-            {
-                return Err(schema(format!(
-                    "basis '{}' has an inconsistent coefficient table",
-                    b.family
-                )));
+        for (i, b) in bases.iter().enumerate() {
+            // Everything relighting reads of a basis: its sampled parameters and coefficients.
+            if let Err(e) = b.validate_coefficients() {
+                return Err(schema(format!("basis {i} ({}): {e}", b.family)));
             }
         }
         // Every material, not only those seen in the image: edits and the slot coefficients

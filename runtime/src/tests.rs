@@ -5,8 +5,9 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
+use prt_formats::basis::{AngularGrid, BrdfBasis, GridKind, ParamWarp, BASIS_SCHEMA_VERSION};
 use prt_formats::pixel::{
-    BakeStats, CameraMeta, GroupMeta, MaterialMeta, PixelBakeMeta, Precision, SlotKind,
+    BakeStats, BasisMeta, CameraMeta, GroupMeta, MaterialMeta, PixelBakeMeta, Precision, SlotKind,
     PIXEL_SCHEMA_VERSION,
 };
 use prt_formats::{BakeWriter, Family};
@@ -155,6 +156,44 @@ fn materials_outside_the_groups_must_name_existing_bases() {
                 reason.contains("'unseen' names a missing basis"),
                 "{reason}"
             )
+        }
+        other => panic!("expected a schema error, got {other:?}"),
+    }
+}
+
+/// A basis whose parameter samples decrease (as stored: without its tables). Computing the
+/// coefficients clamped the parameter to [5126, 200] and panicked.
+#[test]
+fn bases_with_unordered_samples_are_refused() {
+    let mut m = meta();
+    m.materials[0].family = Family::BlinnPhong;
+    m.materials[0].slots = vec![SlotKind::Basis(0)];
+    m.materials[0].basis = Some(0);
+    m.bases = vec![BasisMeta {
+        basis: BrdfBasis {
+            version: BASIS_SCHEMA_VERSION,
+            family: Family::BlinnPhong,
+            method: "test".into(),
+            param_range: [1.0, 200.0],
+            param_warp: ParamWarp::Log { offset: 1.0 },
+            param_samples: vec![5126.0, 200.0],
+            grid: AngularGrid {
+                n_theta_i: 2,
+                n_theta_o: 2,
+                n_phi: 2,
+            },
+            grid_kind: GridKind::HalfDiff,
+            num_bases: 1,
+            tables: vec![],
+            coefficients: vec![1.0, 0.5],
+        },
+    }];
+    let path = write("unordered-samples", &m, 1, &[0]);
+    let err = Relighter::open(&path).err();
+    let _ = std::fs::remove_file(&path);
+    match err {
+        Some(RuntimeError::Schema { reason, .. }) => {
+            assert!(reason.contains("strictly increasing"), "{reason}")
         }
         other => panic!("expected a schema error, got {other:?}"),
     }

@@ -49,28 +49,45 @@ impl BrdfBasis {
                 expected: BASIS_SCHEMA_VERSION,
             });
         }
+        self.validate_coefficients()?;
         self.grid.validate()?;
-        if self.num_bases == 0 {
-            return Err(BasisError::Invalid("num_bases is 0".into()));
-        }
-        let want = self.grid.len() * self.num_bases;
-        if self.tables.len() != want {
+        let want = self.grid.len().checked_mul(self.num_bases);
+        if want != Some(self.tables.len()) {
             return Err(BasisError::Shape {
                 field: "tables",
                 found: self.tables.len(),
-                expected: want,
+                expected: want.unwrap_or(usize::MAX),
             });
+        }
+        if !self.tables.iter().all(|v| v.is_finite()) {
+            return Err(BasisError::Invalid("non-finite values".into()));
+        }
+        Ok(())
+    }
+
+    /// Checks everything [`BrdfBasis::coefficients`] relies on: `num_bases`, the parameter
+    /// samples (strictly increasing, finite), the coefficient table's shape and finiteness, the
+    /// warp. Not the version or the tables: a bake file's metadata carries a basis without its
+    /// tables (they are a tensor), and the runtime needs only the coefficients.
+    pub fn validate_coefficients(&self) -> Result<(), BasisError> {
+        if self.num_bases == 0 {
+            return Err(BasisError::Invalid("num_bases is 0".into()));
         }
         if self.param_samples.is_empty() {
             return Err(BasisError::Invalid("no parameter samples".into()));
         }
-        let want = self.param_samples.len() * self.num_bases;
-        if self.coefficients.len() != want {
+        let want = self.param_samples.len().checked_mul(self.num_bases);
+        if want != Some(self.coefficients.len()) {
             return Err(BasisError::Shape {
                 field: "coefficients",
                 found: self.coefficients.len(),
-                expected: want,
+                expected: want.unwrap_or(usize::MAX),
             });
+        }
+        if !self.param_samples.iter().all(|v| v.is_finite())
+            || !self.coefficients.iter().all(|v| v.is_finite())
+        {
+            return Err(BasisError::Invalid("non-finite values".into()));
         }
         if !self.param_samples.windows(2).all(|w| w[0] < w[1]) {
             return Err(BasisError::Invalid(
@@ -83,12 +100,6 @@ impl BrdfBasis {
                     "log warp needs param + offset > 0 over the range".into(),
                 ));
             }
-        }
-        if !self.tables.iter().all(|v| v.is_finite())
-            || !self.coefficients.iter().all(|v| v.is_finite())
-            || !self.param_samples.iter().all(|v| v.is_finite())
-        {
-            return Err(BasisError::Invalid("non-finite values".into()));
         }
         Ok(())
     }

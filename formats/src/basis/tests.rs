@@ -101,6 +101,33 @@ fn validate_catches_shapes() {
     assert!(b.validate().is_err());
 }
 
+/// Found by fuzzing (`prt-fuzz bake-file`): the runtime checked a stored basis' coefficient
+/// table with an unchecked product and not its samples' order, so `coefficients` panicked in
+/// `clamp` (samples decreasing) or allocated `num_bases` values of a wrapped-around product.
+#[test]
+fn validate_coefficients_refuses_what_coefficients_cannot_evaluate() {
+    let mut b = tiny();
+    b.tables.clear();
+    b.validate_coefficients().unwrap();
+    assert!(b.validate().is_err());
+    let mut c = b.clone();
+    c.param_samples = vec![5126.0, 200.0, 300.0];
+    assert!(matches!(
+        c.validate_coefficients(),
+        Err(BasisError::Invalid(_))
+    ));
+    let mut c = b.clone();
+    c.num_bases = usize::MAX / 3 + 1;
+    c.coefficients.clear();
+    assert!(matches!(
+        c.validate_coefficients(),
+        Err(BasisError::Shape { .. })
+    ));
+    let mut c = b.clone();
+    c.coefficients[2] = f32::NAN;
+    assert!(c.validate_coefficients().is_err());
+}
+
 #[test]
 fn serde_round_trip() {
     let b = tiny();
