@@ -101,6 +101,10 @@ pub enum ResourceError {
         #[source]
         source: std::io::Error,
     },
+    /// The URI names a device, pipe or folder rather than a file: reading one could block or
+    /// never end (`/dev/zero`).
+    #[error("{} is not a regular file", file.display())]
+    NotAFile { file: PathBuf },
     /// Buffer 0 has no URI but the file has no GLB `BIN` chunk.
     #[error("the buffer has no URI and the file has no GLB BIN chunk")]
     NoBinChunk,

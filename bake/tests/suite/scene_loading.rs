@@ -691,6 +691,21 @@ fn triangles_beyond_the_coordinate_limit_are_skipped() {
     assert_eq!(accel.triangle_count(), 998);
 }
 
+/// Found by fuzzing (`prt-fuzz gltf`): a buffer URI naming a device was read until memory ran
+/// out. URIs must name regular files.
+#[test]
+fn uris_naming_devices_or_folders_are_errors() {
+    for uri in ["file:///dev/zero", "."] {
+        let dir = TempDir::new("device");
+        let mut doc = Doc::new();
+        doc.mesh(&TRI, None, None);
+        doc.json["buffers"] = json!([{"byteLength": 36, "uri": uri}]);
+        dir.write("scene.gltf", doc.json.to_string());
+        let e = load_err(&dir.config(""));
+        assert!(e.contains("is not a regular file"), "{uri}: {e}");
+    }
+}
+
 #[test]
 fn supplied_normals_are_transformed_and_bad_ones_repaired() {
     let dir = TempDir::new("normals");

@@ -123,6 +123,11 @@ impl Loader<'_> {
         Ok(match source::resolve_uri(uri, &self.folder)? {
             UriTarget::Data(d) => d,
             UriTarget::File(file) => {
+                // Only regular files: a device or pipe could be read forever (found by fuzzing:
+                // `file:///dev/zero` filled the memory). A missing file fails in the read.
+                if std::fs::metadata(&file).is_ok_and(|m| !m.is_file()) {
+                    return Err(ResourceError::NotAFile { file });
+                }
                 std::fs::read(&file).map_err(|source| ResourceError::Read { file, source })?
             }
         })
