@@ -706,6 +706,42 @@ fn uris_naming_devices_or_folders_are_errors() {
     }
 }
 
+/// Found by fuzzing (`prt-fuzz gltf`): the glTF crate's validation does not check that a
+/// camera has the projection its `type` names, or that an image has a source (and a MIME
+/// type with a buffer view), and its accessors then panic. The loader refuses such files.
+#[test]
+fn cameras_and_images_must_have_what_their_accessors_unwrap() {
+    let cases = [
+        (
+            "camera",
+            json!({"cameras": [{"type": "orthographic", "perspective": {"yfov": 0.8, "znear": 0.1}}]}),
+            "cameras[0].orthographic",
+        ),
+        (
+            "image-view",
+            json!({"images": [{"bufferView": 0}], "textures": [{"source": 0}]}),
+            "images[0].mimeType",
+        ),
+        (
+            "image-none",
+            json!({"images": [{"name": "nothing"}], "textures": [{"source": 0}]}),
+            "images[0].uri",
+        ),
+    ];
+    for (tag, patch, expected) in cases {
+        let dir = TempDir::new(tag);
+        let mut doc = Doc::new();
+        let m = doc.material(json!({"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}));
+        doc.mesh(&TRI, None, Some(m));
+        for (k, v) in patch.as_object().unwrap() {
+            doc.json[k] = v.clone();
+        }
+        doc.write_embedded(&dir);
+        let e = load_err(&dir.config(""));
+        assert!(e.contains(expected), "{tag}: {e}");
+    }
+}
+
 #[test]
 fn supplied_normals_are_transformed_and_bad_ones_repaired() {
     let dir = TempDir::new("normals");

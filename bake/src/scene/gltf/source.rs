@@ -57,9 +57,11 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<gltf::Gltf, GltfParseError> {
 /// `max`. Those are bounds hints we never read (bounds come from the data), and hand-written
 /// or lightly exported files often omit them, so refusing such files would help nobody.
 fn validate(root: &gltf::json::Root) -> Vec<(gltf::json::Path, gltf::json::validation::Error)> {
-    use gltf::json::validation::{Error, Validate};
+    use gltf::json::camera::Type;
+    use gltf::json::validation::{Checked, Error, Validate};
+    use gltf::json::Path;
     let mut errors = Vec::new();
-    root.validate(root, gltf::json::Path::new, &mut |path, error| {
+    root.validate(root, Path::new, &mut |path, error| {
         let p = path();
         let s = p.as_str();
         let bounds_hint = s.ends_with("[\"POSITION\"].min") || s.ends_with("[\"POSITION\"].max");
@@ -67,6 +69,31 @@ fn validate(root: &gltf::json::Root) -> Vec<(gltf::json::Path, gltf::json::valid
             errors.push((p, error));
         }
     });
+    // Rules of the glTF spec the crate does not check, although its accessors unwrap them
+    // (found by fuzzing): a camera has the projection its `type` names; an image has a URI
+    // or a buffer view, and a MIME type with the buffer view.
+    for (i, camera) in root.cameras.iter().enumerate() {
+        let missing = match camera.type_ {
+            Checked::Valid(Type::Perspective) if camera.perspective.is_none() => "perspective",
+            Checked::Valid(Type::Orthographic) if camera.orthographic.is_none() => "orthographic",
+            _ => continue,
+        };
+        errors.push((
+            Path::new().field("cameras").index(i).field(missing),
+            Error::Missing,
+        ));
+    }
+    for (i, image) in root.images.iter().enumerate() {
+        let missing = match (&image.uri, &image.buffer_view, &image.mime_type) {
+            (None, None, _) => "uri",
+            (None, Some(_), None) => "mimeType",
+            _ => continue,
+        };
+        errors.push((
+            Path::new().field("images").index(i).field(missing),
+            Error::Missing,
+        ));
+    }
     errors
 }
 
