@@ -21,9 +21,6 @@ use prt_formats::pixel::{
 use prt_formats::{BakeFile, Dtype, FormatError};
 use rayon::prelude::*;
 
-#[cfg(test)]
-mod tests;
-
 /// Why a bake file could not be opened for relighting, or an edit or render was refused.
 #[derive(Debug, thiserror::Error)]
 pub enum RuntimeError {
@@ -139,7 +136,10 @@ impl Relighter {
         for (i, b) in bases.iter().enumerate() {
             // Everything relighting reads of a basis: its sampled parameters and coefficients.
             if let Err(e) = b.validate_coefficients() {
-                return Err(schema(format!("basis {i} ({}): {e}", b.family)));
+                return Err(schema(format!(
+                    "basis {i} ({}) has an inconsistent coefficient table: {e}",
+                    b.family
+                )));
             }
         }
         // Every material, not only those seen in the image: edits and the slot coefficients

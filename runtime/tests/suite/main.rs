@@ -2,6 +2,7 @@
 //! baker): one test binary, one module per concern.
 
 mod edits;
+mod fuzzed;
 mod relight;
 mod synthetic;
 mod validation;

@@ -1,6 +1,7 @@
 //! Bake files that are valid containers but absurd per-pixel bakes, found by fuzzing
 //! (`prt-fuzz bake-file`, docs/fuzzing.md): the runtime refuses them, or relights them at a
-//! cost proportional to the file; it never hangs or allocates without bound.
+//! cost proportional to the file; it never panics, hangs or allocates without bound. Each
+//! file here is self-contained (written from its metadata), like the fuzzer's inputs.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -12,7 +13,7 @@ use prt_formats::pixel::{
 };
 use prt_formats::{BakeWriter, Family};
 
-use crate::{Relighter, RuntimeError, Variant};
+use prt_runtime::{Relighter, RuntimeError, Variant};
 
 /// A 1 x 1 gray bake of one diffuse material (Kd 0.5) seen by its one pixel, direct light only.
 fn meta() -> PixelBakeMeta {
@@ -59,12 +60,9 @@ fn meta() -> PixelBakeMeta {
 }
 
 /// Writes `meta` with a black emission and a transfer tensor of `row_len` ones per pixel
-/// (`pixels` of them).
-fn write(name: &str, meta: &PixelBakeMeta, row_len: usize, pixels: &[u32]) -> PathBuf {
-    let path = std::env::temp_dir().join(format!(
-        "prt-runtime-test-{}-{name}.prtbake",
-        std::process::id()
-    ));
+/// (`pixels` of them) into `dir`.
+fn write(dir: &tempfile::TempDir, meta: &PixelBakeMeta, row_len: usize, pixels: &[u32]) -> PathBuf {
+    let path = dir.path().join("fuzzed.prtbake");
     let t = vec![1.0f32; row_len * pixels.len()];
     let mut w = BakeWriter::new();
     w.set_metadata(meta.to_json());
@@ -84,13 +82,13 @@ fn write(name: &str, meta: &PixelBakeMeta, row_len: usize, pixels: &[u32]) -> Pa
 fn absurd_reflections_relight_at_the_cost_of_the_row() {
     let mut m = meta();
     m.reflections = i32::MAX as u32;
-    let path = write("reflections", &m, 1, &[0]);
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(&dir, &m, 1, &[0]);
     let start = Instant::now();
     let frame = Relighter::open(&path)
         .and_then(|r| r.render(Variant::Full))
         .unwrap();
     let seconds = start.elapsed().as_secs_f64();
-    let _ = std::fs::remove_file(&path);
     assert_eq!(frame.pixels, [[0.5; 3]]);
     assert!(seconds < 1.0, "{seconds} s");
 }
@@ -104,9 +102,9 @@ fn groups_without_pixels_are_refused() {
     m.groups[0].active = vec![0, 0];
     m.groups[0].row_len = u32::MAX;
     m.groups[0].pixels = 0;
-    let path = write("empty-group", &m, u32::MAX as usize, &[]);
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(&dir, &m, u32::MAX as usize, &[]);
     let err = Relighter::open(&path).err();
-    let _ = std::fs::remove_file(&path);
     match err {
         Some(RuntimeError::Schema { reason, .. }) => {
             assert!(reason.contains("no pixels"), "{reason}")
@@ -123,9 +121,9 @@ fn unordered_pixel_indices_are_refused() {
     let mut m = meta();
     m.height = 9;
     m.groups[0].pixels = 2;
-    let path = write("unordered", &m, 1, &[8, 0]);
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(&dir, &m, 1, &[8, 0]);
     let err = Relighter::open(&path).err();
-    let _ = std::fs::remove_file(&path);
     match err {
         Some(RuntimeError::Schema { reason, .. }) => {
             assert!(reason.contains("strictly ascending"), "{reason}")
@@ -147,9 +145,9 @@ fn materials_outside_the_groups_must_name_existing_bases() {
     glossy.slot_offset = 1;
     glossy.basis = Some(0);
     m.materials.push(glossy);
-    let path = write("missing-basis", &m, 1, &[0]);
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(&dir, &m, 1, &[0]);
     let err = Relighter::open(&path).err();
-    let _ = std::fs::remove_file(&path);
     match err {
         Some(RuntimeError::Schema { reason, .. }) => {
             assert!(
@@ -188,9 +186,9 @@ fn bases_with_unordered_samples_are_refused() {
             coefficients: vec![1.0, 0.5],
         },
     }];
-    let path = write("unordered-samples", &m, 1, &[0]);
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(&dir, &m, 1, &[0]);
     let err = Relighter::open(&path).err();
-    let _ = std::fs::remove_file(&path);
     match err {
         Some(RuntimeError::Schema { reason, .. }) => {
             assert!(reason.contains("strictly increasing"), "{reason}")
