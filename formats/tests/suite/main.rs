@@ -3,5 +3,6 @@
 
 mod container;
 mod image_io;
+mod metadata;
 mod overrides;
 mod python_compat;

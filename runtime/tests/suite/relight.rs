@@ -116,3 +116,27 @@ fn frames_are_identical_on_any_thread_count() {
         }
     }
 }
+
+#[test]
+fn groups_smaller_than_a_tile_relight_exactly() {
+    // The contraction works in tiles of 8 pixels with a scalar tail; a group with fewer pixels
+    // than a tile is all tail.
+    let mut s = Synthetic::new(1, None, 13);
+    for (g, keep) in s.groups.iter_mut().zip([5usize, 1, 9]) {
+        let p = g.pixels.len();
+        let len = g.transfer.len() / p;
+        g.transfer = (0..len)
+            .flat_map(|e| g.transfer[e * p..e * p + keep].to_vec())
+            .collect();
+        g.pixels.truncate(keep);
+        g.meta.pixels = keep as u32;
+    }
+    let (_dir, mut r) = open(&s, Precision::F32);
+    let expect = s.relight(&s.params(), false, None);
+    for kernel in [Kernel::Auto, Kernel::Scalar] {
+        r.set_kernel(kernel);
+        let f = r.render(Variant::Full).expect("render");
+        let err = max_rel_err(&f.pixels, &expect);
+        assert!(err < 2e-6, "{kernel:?}: max error {err:e}");
+    }
+}
