@@ -140,3 +140,51 @@ fn coefficient_checks_accept_a_valid_basis_and_refuse_each_defect() {
         assert!(b.validate_coefficients().is_err(), "{what}: accepted");
     }
 }
+
+#[test]
+fn coefficients_interpolate_linearly_in_the_warped_parameter_and_clamp() {
+    // Five samples, so the last interval's index (len - 2 = 3) differs from len / 2.
+    for warp in [ParamWarp::Linear, ParamWarp::Log { offset: 0.5 }] {
+        let b = basis(vec![1.0, 2.0, 4.0, 8.0, 16.0], warp);
+        let nb = b.num_bases;
+        for j in 0..4 {
+            let (lo, hi) = (b.param_samples[j], b.param_samples[j + 1]);
+            for t in [0.0f32, 0.25, 0.5, 0.9] {
+                // The parameter whose warped value lies a fraction t along the interval.
+                let (u0, u1) = (warp.apply_f32(lo), warp.apply_f32(hi));
+                let u = u0 + t * (u1 - u0);
+                let p = match warp {
+                    ParamWarp::Linear => u,
+                    ParamWarp::Log { offset } => u.exp() - offset,
+                };
+                let (c, clamped) = b.coefficients(p);
+                assert!(!clamped, "{p} lies inside the range");
+                for k in 0..nb {
+                    let a0 = b.coefficients[j * nb + k];
+                    let a1 = b.coefficients[(j + 1) * nb + k];
+                    let want = a0 + t * (a1 - a0);
+                    assert!(
+                        (c[k] - want).abs() < 1e-5,
+                        "{warp:?}, interval {j}, t {t}: basis {k} is {} not {want}",
+                        c[k]
+                    );
+                }
+            }
+        }
+        let last = &b.coefficients[4 * nb..];
+        for p in [16.0, 20.0, f32::INFINITY] {
+            let (c, clamped) = b.coefficients(p);
+            assert_eq!(&c[..], last, "{p} clamps to the last sample");
+            assert_eq!(clamped, p > 16.0, "{p}");
+        }
+        for p in [0.5, f32::NAN] {
+            let (c, clamped) = b.coefficients(p);
+            assert_eq!(
+                &c[..],
+                &b.coefficients[..nb],
+                "{p} clamps to the first sample"
+            );
+            assert!(clamped, "{p}");
+        }
+    }
+}
