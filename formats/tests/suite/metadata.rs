@@ -188,3 +188,19 @@ fn coefficients_interpolate_linearly_in_the_warped_parameter_and_clamp() {
         }
     }
 }
+
+#[test]
+fn material_coefficients_fold_kd_into_the_first_basis() {
+    let b = basis(vec![1.0, 2.0, 4.0], ParamWarp::Linear);
+    let (kd, ks) = ([0.5, 0.25, 0.125], [0.2, 0.4, 0.8]);
+    let (a, _) = b.coefficients(3.0);
+    let (c, clamped) = b.material_coefficients(kd, ks, 3.0);
+    assert!(!clamped);
+    assert_eq!(c.len(), b.num_bases);
+    for (k, ck) in c.iter().enumerate() {
+        for ch in 0..3 {
+            let d = if k == 0 { kd[ch] } else { 0.0 };
+            assert_eq!(ck[ch], d + ks[ch] * a[k], "basis {k}, channel {ch}");
+        }
+    }
+}
