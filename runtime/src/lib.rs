@@ -132,6 +132,13 @@ impl Relighter {
                 prt_formats::pixel::PIXEL_SCHEMA_VERSION
             )));
         }
+        // The contraction weights are laid out for gray (1) or RGB (3) values only.
+        if !matches!(meta.channels, 1 | 3) {
+            return Err(schema(format!(
+                "{} channels per value (1 or 3 expected)",
+                meta.channels
+            )));
+        }
         let bases: Vec<BrdfBasis> = meta.bases.iter().map(|b| b.basis.clone()).collect();
         for (i, b) in bases.iter().enumerate() {
             // Everything relighting reads of a basis: its sampled parameters and coefficients.

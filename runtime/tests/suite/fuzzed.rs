@@ -196,3 +196,23 @@ fn bases_with_unordered_samples_are_refused() {
         other => panic!("expected a schema error, got {other:?}"),
     }
 }
+
+/// Not found by the fuzzer (it takes three matching changes: `channels`, the row length and
+/// the tensor's size) but by reading the code while fixing its findings: `channels` = 2 made
+/// `group_weights` write 3 values per element into a row sized for 2, out of bounds.
+#[test]
+fn channel_counts_other_than_1_or_3_are_refused() {
+    for channels in [0, 2, 4] {
+        let mut m = meta();
+        m.channels = channels;
+        m.groups[0].row_len = channels;
+        let dir = tempfile::tempdir().unwrap();
+        let path = write(&dir, &m, channels as usize, &[0]);
+        match Relighter::open(&path).and_then(|r| r.render(Variant::Full)) {
+            Err(RuntimeError::Schema { reason, .. }) => {
+                assert!(reason.contains("channels"), "{channels}: {reason}")
+            }
+            other => panic!("{channels} channels: expected a schema error, got {other:?}"),
+        }
+    }
+}
