@@ -159,14 +159,14 @@ fn coefficients_interpolate_linearly_in_the_warped_parameter_and_clamp() {
                 };
                 let (c, clamped) = b.coefficients(p);
                 assert!(!clamped, "{p} lies inside the range");
-                for k in 0..nb {
+                assert_eq!(c.len(), nb);
+                for (k, ck) in c.iter().enumerate() {
                     let a0 = b.coefficients[j * nb + k];
                     let a1 = b.coefficients[(j + 1) * nb + k];
                     let want = a0 + t * (a1 - a0);
                     assert!(
-                        (c[k] - want).abs() < 1e-5,
-                        "{warp:?}, interval {j}, t {t}: basis {k} is {} not {want}",
-                        c[k]
+                        (ck - want).abs() < 1e-5,
+                        "{warp:?}, interval {j}, t {t}: basis {k} is {ck} not {want}"
                     );
                 }
             }
