@@ -2,6 +2,7 @@
 //! link instead of one per file keeps CI's build short).
 
 mod allocation;
+mod closed_forms;
 mod convergence;
 mod pixel_behaviour;
 mod pixel_exact;
