@@ -4,5 +4,6 @@
 mod accel;
 mod basis;
 mod brdf;
+mod camera;
 mod render_analytic;
 mod scene_loading;
