@@ -1,6 +1,6 @@
 //! Scene construction in code, for tests, benchmarks and analytic checks (no glTF needed).
 
-use glam::{Vec2, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 
 use crate::brdf::BrdfParams;
 use crate::scene::{Camera, Environment, Material, PunctualLight, Scene};
@@ -479,3 +479,23 @@ pub mod albedo {
         }
     }
 }
+
+/// Radiance on a half of albedo `a_half` inside the closed sphere of [`inside_sphere_scene`],
+/// with `m` the mean albedo of the two halves, emission `le` and `n` reflections:
+/// `le (1 + a_half (1 + m + ... + m^(n-1)))`. Integrating sphere: the radiance arriving at any
+/// point is the area-weighted mean of the radiance leaving the sphere, so after the first
+/// reflection each bounce multiplies by the mean albedo. With one albedo this is
+/// `le (1 + a + ... + a^n)`, exact for any closed enclosure.
+pub fn closed_sphere_radiance(le: Vec3, a_half: Vec3, m: Vec3, n: usize) -> DVec3 {
+    let (mut series, mut power) = (DVec3::ZERO, DVec3::ONE);
+    for _ in 0..n {
+        series += power;
+        power *= m.as_dvec3();
+    }
+    le.as_dvec3() * (DVec3::ONE + a_half.as_dvec3() * series)
+}
+
+/// Relative allowance, on the reflected part `L - Le`, for the polyhedron's deviation from a
+/// sphere when the two halves of [`inside_sphere_scene`] differ. Measured with 131 000 samples
+/// per half and N = 1..4: within 7e-4 and 1.3 standard errors, i.e. not resolved.
+pub const SPLIT_GEOMETRY: f64 = 1e-3;

@@ -7,8 +7,8 @@ use prt_bake::integrator::Integrator;
 use prt_bake::lights::LightSet;
 use prt_bake::scene::{Environment, Scene};
 use prt_bake::testing::{
-    albedo, camera_samples, convex_furnace_scene, furnace_scene, inside_sphere_scene, look_at,
-    CameraSample, SceneBuilder,
+    albedo, camera_samples, closed_sphere_radiance, convex_furnace_scene, furnace_scene,
+    inside_sphere_scene, look_at, CameraSample, SceneBuilder, SPLIT_GEOMETRY,
 };
 
 fn render_scene(
@@ -132,26 +132,6 @@ fn furnace_sphere_radiance_equals_albedo() {
         }
     }
 }
-
-/// Radiance on a half of albedo `a_half` inside the closed sphere of
-/// [`inside_sphere_scene`], with `m` the mean albedo of the two halves, emission `le` and `n`
-/// reflections: `le (1 + a_half (1 + m + ... + m^(n-1)))`. Integrating sphere: the radiance
-/// arriving at any point is the area-weighted mean of the radiance leaving the sphere, so
-/// after the first reflection each bounce multiplies by the mean albedo.
-fn closed_sphere_radiance(le: Vec3, a_half: Vec3, m: Vec3, n: usize) -> DVec3 {
-    let (mut series, mut power) = (DVec3::ZERO, DVec3::ONE);
-    for _ in 0..n {
-        series += power;
-        power *= m.as_dvec3();
-    }
-    le.as_dvec3() * (DVec3::ONE + a_half.as_dvec3() * series)
-}
-
-/// Relative allowance, on the reflected part `L - Le`, for the polyhedron's deviation from a
-/// sphere when the two halves differ (with one albedo the closed form holds for any closed
-/// enclosure, exactly). Measured with 131 000 samples per half and N = 1..4: within 7e-4 and
-/// 1.3 standard errors, i.e. not resolved.
-const SPLIT_GEOMETRY: f64 = 1e-3;
 
 /// Inside a closed Lambert sphere that emits `Le` everywhere, radiance is `Le (1 + a + ... +
 /// a^N)` at every point for N reflections (albedo a per channel), and with two halves of

@@ -12,7 +12,10 @@ use prt_bake::pixel::{self, PixelBake, PixelBakeOptions, Precision, SlotLayout};
 use prt_bake::progress::Silent;
 use prt_bake::run::{build_bases, load, BasisCount};
 use prt_bake::scene::Scene;
-use prt_bake::testing::{albedo, camera_samples, convex_furnace_scene, inside_sphere_scene};
+use prt_bake::testing::{
+    albedo, camera_samples, closed_sphere_radiance, convex_furnace_scene, inside_sphere_scene,
+    SPLIT_GEOMETRY,
+};
 use prt_formats::basis::BrdfBasis;
 use prt_formats::overrides::parse_override;
 use prt_runtime::{Relighter, Variant};
@@ -95,24 +98,6 @@ fn mean_and_se(values: impl Iterator<Item = DVec3>) -> (DVec3, DVec3, usize) {
     (mean, (var / nf).map(f64::sqrt), n)
 }
 
-/// Inside a closed Lambert sphere emitting `Le` everywhere (`inside_sphere_scene`): with
-/// albedo a everywhere, radiance `Le (1 + a + ... + a^N)` for N reflections, and with two
-/// halves the integrating-sphere form `Le (1 + a_half (1 + m + ... + m^(N-1)))`, m the mean
-/// albedo (see `render_analytic.rs` in the bake crate for the derivation).
-fn closed_sphere_radiance(le: Vec3, a_half: Vec3, m: Vec3, n: u32) -> DVec3 {
-    let (mut series, mut power) = (DVec3::ZERO, DVec3::ONE);
-    for _ in 0..n {
-        series += power;
-        power *= m.as_dvec3();
-    }
-    le.as_dvec3() * (DVec3::ONE + a_half.as_dvec3() * series)
-}
-
-/// Relative allowance on the reflected part `L - Le` for the polyhedron's deviation from the
-/// sphere's form factors when the halves differ (measured not resolved at 7e-4 with 131 000
-/// reference samples per half; with one albedo the closed form holds for any enclosure).
-const SPLIT_GEOMETRY: f64 = 1e-3;
-
 /// The closed sphere baked once per reflection count (1 to 4: T0 up to T3) with both halves
 /// editable, relit for edited albedos: one grey, one per channel, and the two halves
 /// different (so a slot read from the wrong material, or a path product missing a vertex,
@@ -151,7 +136,7 @@ fn closed_sphere_bake_relit_is_a_geometric_series() {
                         .map(|&p| Vec3::from_array(pixels[p]).as_dvec3()),
                 );
                 assert!(count > 150, "material {material}: {count} pixels");
-                let expect = closed_sphere_radiance(le, a, m, n);
+                let expect = closed_sphere_radiance(le, a, m, n as usize);
                 for c in 0..3 {
                     let d = mean[c] - expect[c];
                     let allowed =
