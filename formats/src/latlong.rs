@@ -76,6 +76,57 @@ pub fn texel_centre(x: usize, y: usize, width: usize, height: usize) -> (f32, f3
     )
 }
 
+/// The four texels and weights of the **bilinear** lookup at image coordinate `(u, v)` of a
+/// `width x height` map, as `[(texel index y * width + x, weight); 4]` (weights >= 0, summing
+/// to 1).
+///
+/// Texel values sit at texel centres and are interpolated linearly between them, as pbrt and
+/// Mitsuba interpolate environment maps (a nearest lookup makes the background of a
+/// close-up view blocky). Horizontally the map wraps around the seam (u = 0 = 1); vertically the
+/// half-texel bands next to the poles take the first and last row (clamped), so the value at a
+/// pole is the row's value at that azimuth. `width` and `height` must be at least 1.
+#[inline]
+pub fn bilinear(u: f32, v: f32, width: usize, height: usize) -> [(usize, f32); 4] {
+    // Wrap u into [0, 1) first so that large |u| and the seam behave alike.
+    let fx = u.rem_euclid(1.0) * width as f32 - 0.5;
+    let x_floor = fx.floor();
+    let tx = (fx - x_floor).clamp(0.0, 1.0);
+    // x_floor is in [-1, width - 1]: -1 wraps to the last column.
+    let x0 = (x_floor as i64).rem_euclid(width as i64) as usize;
+    let x1 = if x0 + 1 == width { 0 } else { x0 + 1 };
+    let fy = v.clamp(0.0, 1.0) * height as f32 - 0.5;
+    let (y0, y1, ty) = if fy <= 0.0 {
+        (0, 0, 0.0)
+    } else if fy >= (height - 1) as f32 {
+        (height - 1, height - 1, 0.0)
+    } else {
+        let y_floor = fy.floor();
+        let y0 = (y_floor as usize).min(height - 1);
+        (y0, (y0 + 1).min(height - 1), (fy - y_floor).clamp(0.0, 1.0))
+    };
+    [
+        (y0 * width + x0, (1.0 - tx) * (1.0 - ty)),
+        (y0 * width + x1, tx * (1.0 - ty)),
+        (y1 * width + x0, (1.0 - tx) * ty),
+        (y1 * width + x1, tx * ty),
+    ]
+}
+
+/// The bilinearly interpolated value (see [`bilinear`]) of an RGB `width x height` map,
+/// row-major with the top row first, in direction `d` (unit).
+#[inline]
+pub fn lookup_bilinear(texels: &[[f32; 3]], width: usize, height: usize, d: [f32; 3]) -> [f32; 3] {
+    let (u, v) = direction_to_uv(d);
+    let mut out = [0.0f32; 3];
+    for (i, w) in bilinear(u, v, width, height) {
+        let t = texels[i];
+        out[0] += w * t[0];
+        out[1] += w * t[1];
+        out[2] += w * t[2];
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -195,6 +246,81 @@ mod tests {
                     );
                 }
             }
+        }
+    }
+
+    #[test]
+    fn bilinear_hits_texel_centres_and_interpolates_between() {
+        let (w, h) = (8, 4);
+        for y in 0..h {
+            for x in 0..w {
+                let (u, v) = texel_centre(x, y, w, h);
+                let taps = bilinear(u, v, w, h);
+                let total: f32 = taps.iter().map(|t| t.1).sum();
+                assert!((total - 1.0).abs() < 1e-6);
+                let at_centre: f32 = taps.iter().filter(|t| t.0 == y * w + x).map(|t| t.1).sum();
+                assert!((at_centre - 1.0).abs() < 1e-5, "({x}, {y}): {taps:?}");
+            }
+        }
+        // Half-way between the centres of texels (2, 1) and (3, 1): half each.
+        let taps = bilinear(3.0 / 8.0, 1.5 / 4.0, w, h);
+        let weight_of = |i: usize| -> f32 { taps.iter().filter(|t| t.0 == i).map(|t| t.1).sum() };
+        assert!((weight_of(8 + 2) - 0.5).abs() < 1e-6 && (weight_of(8 + 3) - 0.5).abs() < 1e-6);
+        // A quarter of the way from row 1's centre to row 2's centre.
+        let taps = bilinear(2.5 / 8.0, 1.75 / 4.0, w, h);
+        let weight_of = |i: usize| -> f32 { taps.iter().filter(|t| t.0 == i).map(|t| t.1).sum() };
+        assert!((weight_of(8 + 2) - 0.75).abs() < 1e-6 && (weight_of(16 + 2) - 0.25).abs() < 1e-6);
+    }
+
+    #[test]
+    fn bilinear_wraps_at_the_seam_and_clamps_at_the_poles() {
+        let (w, h) = (8, 4);
+        let weight_of = |taps: [(usize, f32); 4], i: usize| -> f32 {
+            taps.iter().filter(|t| t.0 == i).map(|t| t.1).sum()
+        };
+        // On the seam (u = 0 and u = 1): half the first column, half the last.
+        for u in [0.0, 1.0, 1e-9, 1.0 - 1e-7] {
+            let taps = bilinear(u, 1.5 / 4.0, w, h);
+            assert!((weight_of(taps, 8) - 0.5).abs() < 1e-3, "{u}: {taps:?}");
+            assert!((weight_of(taps, 8 + 7) - 0.5).abs() < 1e-3, "{u}: {taps:?}");
+        }
+        // Above the first row's centre and below the last row's: that row only.
+        for v in [0.0, 0.05, 0.125] {
+            let taps = bilinear(2.5 / 8.0, v, w, h);
+            assert!((weight_of(taps, 2) - 1.0).abs() < 1e-6, "{v}: {taps:?}");
+        }
+        for v in [1.0, 0.95, 0.875] {
+            let taps = bilinear(2.5 / 8.0, v, w, h);
+            assert!(
+                (weight_of(taps, 24 + 2) - 1.0).abs() < 1e-6,
+                "{v}: {taps:?}"
+            );
+        }
+        // A 1 x 1 map: everything is its one texel.
+        for (u, v) in [(0.0, 0.0), (0.3, 0.7), (1.0, 1.0)] {
+            assert!((weight_of(bilinear(u, v, 1, 1), 0) - 1.0).abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn bilinear_lookup_is_continuous_and_reproduces_linear_ramps() {
+        // A map that is linear in the column index between centres: the lookup must be the
+        // same ramp (up to the wrap-around segment), i.e. no blocky steps.
+        let (w, h) = (16, 8);
+        let texels: Vec<[f32; 3]> = (0..w * h)
+            .map(|i| {
+                let (x, y) = (i % w, i / w);
+                [x as f32, y as f32, 1.0]
+            })
+            .collect();
+        for k in 0..100 {
+            let u = (0.5 + k as f32 * (w as f32 - 1.0) / 100.0) / w as f32;
+            let v = (0.5 + k as f32 * (h as f32 - 1.0) / 100.0) / h as f32;
+            let d = uv_to_direction(u, v);
+            let c = lookup_bilinear(&texels, w, h, d);
+            assert!((c[0] - (u * w as f32 - 0.5)).abs() < 2e-3, "{k}: {c:?}");
+            assert!((c[1] - (v * h as f32 - 0.5)).abs() < 2e-3, "{k}: {c:?}");
+            assert!((c[2] - 1.0).abs() < 1e-5);
         }
     }
 }
