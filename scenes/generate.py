@@ -6,14 +6,18 @@ Python 3 standard library only. Run from anywhere:
     python3 scenes/generate.py                      # rewrite all scenes
     python3 scenes/generate.py cornell ring         # only some
 
-The Cornell box needs the Stanford bunny. It is committed inside scenes/cornell/cornell.gltf
-(+ cornell.bin), and by default the generator reads it back from there, so regenerating never
-needs the network. To take it afresh from its source, the npm package `bunny` (1.0.1, by Mikola
-Lysenko, a decimated Stanford bunny: 1839 vertices, 3674 triangles; see scenes/README.md for
-source and licence), fetch the package and point the generator at its index.js:
+The Cornell box and the gallery need the Stanford bunny. It is committed inside
+scenes/cornell/cornell.gltf (+ cornell.bin), and by default the generator reads it back from
+there, so regenerating never needs the network. To take it afresh from its source, the npm
+package `bunny` (1.0.1, by Mikola Lysenko, a decimated Stanford bunny: 1839 vertices, 3674
+triangles; see scenes/README.md for source and licence), fetch the package and point the
+generator at its index.js:
 
     cd /tmp && npm pack bunny && tar xzf bunny-1.0.1.tgz      # -> /tmp/package/index.js
-    python3 scenes/generate.py --bunny /tmp/package/index.js cornell
+    python3 scenes/generate.py --bunny /tmp/package/index.js cornell gallery
+
+The gallery's environment map is not written here: scenes/envmaps/fetch.py decodes it from the
+npm package @pmndrs/assets (see scenes/envmaps/README.md).
 
 Conventions (docs/conventions.md): right-handed, +Y up, metres; cameras and spot lights look
 down their local -Z; triangles are counter-clockwise seen from their front side; colours are
@@ -352,22 +356,30 @@ def bunny_from_committed(gltf_path):
 # ------------------------------------------------------------------------------------------
 # Scenes.
 
-def cornell(bunny_js):
-    folder = os.path.join(HERE, "cornell")
-    os.makedirs(folder, exist_ok=True)
+def load_bunny(bunny_js):
+    """The bunny in its native units (about 9.65 tall, base at y = 0), wound counter-clockwise
+    seen from outside, positions rounded to float32: from the npm package's index.js when
+    given, else read back from the committed scenes/cornell/cornell.gltf."""
     if bunny_js:
         positions, indices = bunny_from_npm(bunny_js)
     else:
-        committed = os.path.join(folder, "cornell.gltf")
+        committed = os.path.join(HERE, "cornell", "cornell.gltf")
         if not os.path.exists(committed):
             sys.exit("scenes/cornell/cornell.gltf is missing; pass --bunny path/to/bunny/index.js")
         positions, indices = bunny_from_committed(committed)
-    # Outward-facing triangles (counter-clockwise from outside): the scan is open at the
-    # bottom, but its enclosed volume still tells which way it winds.
+    # Outward-facing triangles (counter-clockwise from outside): its enclosed volume tells
+    # which way it winds.
     if signed_volume(positions, indices) < 0:
         for k in range(0, len(indices), 3):
             indices[k + 1], indices[k + 2] = indices[k + 2], indices[k + 1]
     positions = [tuple(struct.unpack("<f", struct.pack("<f", c))[0] for c in p) for p in positions]
+    return positions, indices
+
+
+def cornell(bunny_js):
+    folder = os.path.join(HERE, "cornell")
+    os.makedirs(folder, exist_ok=True)
+    positions, indices = load_bunny(bunny_js)
 
     g = Gltf()
     # The classic Cornell box (www.graphics.cornell.edu/online/box/data.html) in metres:
@@ -578,6 +590,105 @@ def icosphere(subdivisions):
     return verts, [i for f in faces for i in f]
 
 
+def loop_subdivide(positions, indices):
+    """One level of Loop subdivision (C. Loop, 1987) of a triangle mesh: every triangle becomes
+    four, winding kept. Interior vertices of valence n move to (1 - n beta) v + beta (sum of
+    neighbours), beta = (5/8 - (3/8 + cos(2 pi / n) / 4)^2) / n; interior edges get the point
+    3/8 (a + b) + 1/8 (c + d). Boundary (and non-manifold) edges get midpoints, boundary
+    vertices with two boundary edges the 1/8, 3/4, 1/8 curve rule, other boundary vertices
+    stay. Deterministic: edges are numbered in the order the triangles meet them."""
+    nv = len(positions)
+    edge_index = {}   # (min, max) -> index into edges
+    edges = []        # [a, b, [opposite vertices]]
+    neighbours = [[] for _ in range(nv)]
+    for k in range(0, len(indices), 3):
+        tri = indices[k:k + 3]
+        for e in range(3):
+            a, b, c = tri[e], tri[(e + 1) % 3], tri[(e + 2) % 3]
+            key = (min(a, b), max(a, b))
+            if key not in edge_index:
+                edge_index[key] = len(edges)
+                edges.append([key[0], key[1], []])
+                neighbours[key[0]].append(key[1])
+                neighbours[key[1]].append(key[0])
+            edges[edge_index[key]][2].append(c)
+    boundary_nbrs = [[] for _ in range(nv)]
+    for a, b, opp in edges:
+        if len(opp) != 2:
+            boundary_nbrs[a].append(b)
+            boundary_nbrs[b].append(a)
+    out = []
+    for v in range(nv):
+        p = positions[v]
+        if boundary_nbrs[v]:
+            if len(boundary_nbrs[v]) == 2:
+                q = add(positions[boundary_nbrs[v][0]], positions[boundary_nbrs[v][1]])
+                p = add(mul(p, 0.75), mul(q, 0.125))
+        else:
+            n = len(neighbours[v])
+            beta = (0.625 - (0.375 + 0.25 * math.cos(2 * math.pi / n)) ** 2) / n
+            s = (0.0, 0.0, 0.0)
+            for w in neighbours[v]:
+                s = add(s, positions[w])
+            p = add(mul(p, 1.0 - n * beta), mul(s, beta))
+        out.append(p)
+    for a, b, opp in edges:
+        ab = add(positions[a], positions[b])
+        if len(opp) == 2:
+            out.append(add(mul(ab, 0.375), mul(add(positions[opp[0]], positions[opp[1]]), 0.125)))
+        else:
+            out.append(mul(ab, 0.5))
+    new = []
+    for k in range(0, len(indices), 3):
+        a, b, c = indices[k:k + 3]
+        ab = nv + edge_index[(min(a, b), max(a, b))]
+        bc = nv + edge_index[(min(b, c), max(b, c))]
+        ca = nv + edge_index[(min(c, a), max(c, a))]
+        new += [a, ab, ca, b, bc, ab, c, ca, bc, ab, bc, ca]
+    return out, new
+
+
+def torus_knot(p, q, radius, tube, segments, sides):
+    """A (p, q) torus knot tube, closed (no duplicated seam vertices), with exact normals.
+    The core curve, as three.js's TorusKnotGeometry draws it, for t in [0, 2 pi):
+        C(t) = radius / 2 ((2 + cos q t) cos p t, (2 + cos q t) sin p t, sin q t)
+    so it lies in the XY plane, facing +Z. The tube's circle at C(t) is spanned by N, the
+    component of C(t) normal to the tangent (C never points along its tangent here), and
+    B = T x N; a point C + tube (cos v N + sin v B) has the normal cos v N + sin v B, exact for a
+    tube around a curve."""
+    md = MeshData()
+    for i in range(segments):
+        t = 2 * math.pi * i / segments
+        cq, sq, cp, sp = math.cos(q * t), math.sin(q * t), math.cos(p * t), math.sin(p * t)
+        c = (radius / 2 * (2 + cq) * cp, radius / 2 * (2 + cq) * sp, radius / 2 * sq)
+        # dC/dt.
+        d = (radius / 2 * (-q * sq * cp - (2 + cq) * p * sp),
+             radius / 2 * (-q * sq * sp + (2 + cq) * p * cp),
+             radius / 2 * q * cq)
+        tt = normalize(d)
+        nn = normalize(sub(c, mul(tt, dot(c, tt))))
+        bb = cross(tt, nn)
+        for j in range(sides):
+            v = 2 * math.pi * j / sides
+            nrm = add(mul(nn, math.cos(v)), mul(bb, math.sin(v)))
+            md.vertex(add(c, mul(nrm, tube)), nrm)
+    for i in range(segments):
+        for j in range(sides):
+            a = i * sides + j
+            b = ((i + 1) % segments) * sides + j
+            c2 = ((i + 1) % segments) * sides + (j + 1) % sides
+            d2 = i * sides + (j + 1) % sides
+            md.tri(a, b, c2)
+            md.tri(a, c2, d2)
+    # Turn the winding round if it runs clockwise seen from the normals' side.
+    a, b, c2 = md.indices[0:3]
+    g = cross(sub(md.positions[b], md.positions[a]), sub(md.positions[c2], md.positions[a]))
+    if dot(g, md.normals[a]) < 0:
+        for k in range(0, len(md.indices), 3):
+            md.indices[k + 1], md.indices[k + 2] = md.indices[k + 2], md.indices[k + 1]
+    return md
+
+
 def furnace():
     folder = os.path.join(HERE, "furnace")
     os.makedirs(folder, exist_ok=True)
@@ -614,11 +725,94 @@ family = "diffuse"
 """)
 
 
+def gallery(bunny_js):
+    """A glossy torus knot and a diffuse bunny on a gridded floor, lit only by a lat-long
+    environment map (scenes/envmaps/studio.exr): the scene for the per-vertex mode, so every
+    surface is tessellated finely enough for transfer stored at vertices."""
+    folder = os.path.join(HERE, "gallery")
+    os.makedirs(folder, exist_ok=True)
+    g = Gltf()
+    floor_mat = g.material("floor", (0.6, 0.6, 0.6))
+    # Roughness 0.3873 is GGX alpha 0.15; the config raises Ks from glTF's 0.04 to 0.5.
+    knot_mat = g.material("knot", (0.05, 0.12, 0.35), metallic=0.0, roughness=0.3873)
+    bunny_mat = g.material("bunny", (0.8, 0.4, 0.18))
+
+    # Floor: 1.4 m square, 96 x 96 grid (1.46 cm spacing) for shadows and colour bleeding.
+    F, nf = 0.7, 96
+    floor = MeshData()
+    grid_quad(floor, (-F, 0, F), (2 * F, 0, 0), (0, 0, -2 * F), nf, nf, (0, 1, 0))
+    g.node("floor", mesh=g.mesh("floor", [(floor, floor_mat, True)]))
+
+    # Torus knot (2, 3): 0.09 m knot radius, 3.2 cm tube, 320 x 24 vertices, turned a quarter
+    # about Z so one lobe points up and two rest on the floor; standing in the XY plane, then
+    # turned 25 degrees about +Y by its node, sunk 1 mm into the floor.
+    knot = torus_knot(2, 3, 0.09, 0.032, 320, 24)
+    knot.positions = [(-p[1], p[0], p[2]) for p in knot.positions]
+    knot.normals = [(-n[1], n[0], n[2]) for n in knot.normals]
+    knot_lift = -min(p[1] for p in knot.positions) - 0.001
+    g.node("knot", mesh=g.mesh("knot", [(knot, knot_mat, True)]),
+           translation=[-0.2, knot_lift, -0.05], rotation=y_rotation_quaternion(25.0))
+
+    # The bunny: two levels of Loop subdivision (1 839 -> 29 354 vertices), scaled to metres
+    # (0.026 per native unit, about 0.25 m tall), area-weighted normals, sunk 1 mm.
+    positions, indices = load_bunny(bunny_js)
+    for _ in range(2):
+        positions, indices = loop_subdivide(positions, indices)
+    positions = [mul(p, 0.026) for p in positions]
+    bunny = MeshData()
+    bunny.positions = positions
+    bunny.normals = smooth_normals(positions, indices)
+    bunny.indices = indices
+    bunny_lift = -min(p[1] for p in positions) - 0.001
+    g.node("bunny", mesh=g.mesh("bunny", [(bunny, bunny_mat, True)]),
+           translation=[0.2, bunny_lift, 0.05], rotation=y_rotation_quaternion(-30.0))
+
+    g.camera("camera", (0.0, 0.4, 0.98), (0.0, 0.15, 0.0), 38.0, aspect=4.0 / 3.0)
+    g.write_gltf(folder, "gallery")
+    write_text(os.path.join(folder, "bake.toml"), """\
+# Gallery: a glossy torus knot and a diffuse bunny on a floor, lit only by the studio
+# environment map (scenes/generate.py; map: scenes/envmaps/README.md).
+#
+# Made for the per-vertex mode (mode = "vertex": dynamic light, view and materials), whose
+# baker is not written yet; until it is, this bakes per pixel, small. The vertex bake will
+# reuse this scene (about 46K vertices).
+scene = "gallery.gltf"
+mode = "pixel"
+width = 160
+height = 120
+spp = 64
+reflections = 2
+seed = 0
+
+# Scaled so the lit floor comes out near 0.6-0.8 (the map's irradiance on an upward plane is
+# about 14 W/m^2 at intensity 1).
+[environment]
+map = "../envmaps/studio.exr"
+intensity = 0.25
+
+# Glossy: glTF says a dark blue dielectric with roughness 0.387 (ggx, alpha 0.15, Ks 0.04);
+# a clearly visible lobe needs a larger Ks (Kd + Ks stays <= 1).
+[materials.knot]
+editable = true
+family = "ggx"
+kd = [0.05, 0.12, 0.35]
+ks = 0.5
+alpha = 0.15
+
+# Diffuse: fully rough in the glTF (-> diffuse), Kd from its base colour.
+[materials.bunny]
+editable = true
+family = "diffuse"
+kd = [0.8, 0.4, 0.18]
+""")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("scenes", nargs="*", default=["cornell", "ring", "furnace"])
+    ap.add_argument("scenes", nargs="*", default=["cornell", "ring", "furnace", "gallery"])
     ap.add_argument("--bunny", help="index.js of the npm package `bunny` (default: reuse the "
-                                    "bunny committed in scenes/cornell/cornell.gltf)")
+                                    "bunny committed in scenes/cornell/cornell.gltf; used by "
+                                    "cornell and gallery)")
     args = ap.parse_args()
     for name in args.scenes:
         if name == "cornell":
@@ -627,8 +821,10 @@ def main():
             ring()
         elif name == "furnace":
             furnace()
+        elif name == "gallery":
+            gallery(args.bunny)
         else:
-            sys.exit("unknown scene %r (cornell, ring, furnace)" % name)
+            sys.exit("unknown scene %r (cornell, ring, furnace, gallery)" % name)
         print("wrote scenes/%s" % name)
 
 
