@@ -182,6 +182,30 @@ def write_envsphere(folder, sky_path, turn_quarter=False):
     mi.Bitmap(sky.astype(np.float32)).write(sky_path)
 
 
+def mitsuba_rows(sky):
+    """The H-row map `sky` (rows centred at v = (j + 0.5) / H, clamped beyond the first and
+    last centre, linear in between: docs/conventions.md) as a (2H + 1)-row map for Mitsuba,
+    whose row r sits at v = r / (2H): odd rows are the project's rows, even rows the midpoints
+    between them, and the pole rows repeat the first and last row. Linear interpolation between
+    these rows is the project's interpolation exactly (a linear function sampled at its
+    midpoints, and a constant in the pole bands), in u as well since columns are unchanged."""
+    h = sky.shape[0]
+    out = np.empty((2 * h + 1,) + sky.shape[1:], dtype=np.float64)
+    out[1::2] = sky
+    out[2:-1:2] = 0.5 * (sky[:-1] + sky[1:])
+    out[0] = sky[0]
+    out[-1] = sky[-1]
+    return out
+
+
+def mitsuba_rows_file(path):
+    """Writes mitsuba_rows of the EXR at `path` beside it; returns the new file's path."""
+    refined = os.path.splitext(path)[0] + "-mitsuba-rows.exr"
+    sky = np.array(mi.Bitmap(path), dtype=np.float64)[..., :3]
+    mi.Bitmap(mitsuba_rows(sky).astype(np.float32)).write(refined)
+    return refined
+
+
 # ------------------------------------------------------------------------------------------
 # Materials: the glTF factors mapped as docs/conventions.md says, then the bake config's
 # overrides, then the relight edits.
@@ -325,14 +349,14 @@ def mitsuba_scene(case, gltf_path, env, work):
     if env and "color" in env:
         scene["sky"] = {"type": "constant", "radiance": {"type": "rgb", "value": env["color"]}}
     if env and "map" in env:
-        # The same file. Mitsuba reads a lat-long map turned half a turn about +Y from the
-        # project's convention (its centre column looks along +Z, u = 0.25 along +X), so
-        # to_world turns it back. Both put column centres at (x + 0.5) / width; Mitsuba puts
-        # the first and last rows on the poles (the project half a texel from them) and
-        # interpolates bilinearly (the project takes the nearest texel), which is why the sky
-        # is smooth on the scale of its texels (docs/conventions.md, "Checked against
-        # Mitsuba 3").
-        scene["sky"] = {"type": "envmap", "filename": env["map"],
+        # Mitsuba reads a lat-long map turned half a turn about +Y from the project's
+        # convention (its centre column looks along +Z, u = 0.25 along +X), so to_world turns
+        # it back. Both interpolate bilinearly with column centres at (x + 0.5) / width, but
+        # Mitsuba puts the first and last rows on the poles (row y at v = y / (height - 1))
+        # where the project puts them half a texel away and clamps beyond them; the map is
+        # handed over with its rows refined so that Mitsuba's interpolation is the project's
+        # exactly (mitsuba_rows).
+        scene["sky"] = {"type": "envmap", "filename": mitsuba_rows_file(env["map"]),
                         "to_world": mi.ScalarTransform4f().rotate([0, 1, 0], 180.0)}
     return mi.load_dict(scene), mats
 

@@ -438,19 +438,42 @@ fn latlong_direction(u: f64, v: f64) -> DVec3 {
     )
 }
 
-/// `∫ max(0, n.w) dw` over texel (x, y) of a `w` x `h` lat-long map: a 16 x 16 midpoint rule
-/// in (u, v) with each cell's exact solid angle `dphi (cos theta0 - cos theta1)`.
-fn texel_irradiance(n: DVec3, x: u32, y: u32, w: u32, h: u32) -> f64 {
+/// `∫ max(0, n.w) k(w) dw` for the bilinear "tent" `k` that a block of texels
+/// `x0..=x1` by `y0..=y1` of value 1 (0 elsewhere) makes on a `w` x `h` lat-long map: the
+/// lookup interpolates linearly between texel centres (docs/conventions.md), so the block's
+/// weight is 1 between its first and last centres and falls to 0 one texel further out.
+/// A midpoint rule of 16 x 16 cells per texel over that footprint, each cell with its exact
+/// solid angle `dphi (cos theta0 - cos theta1)`. (The block stays away from the poles and
+/// the seam.)
+fn block_irradiance(n: DVec3, (x0, x1): (u32, u32), (y0, y1): (u32, u32), w: u32, h: u32) -> f64 {
     let sub = 16;
+    // Weight along one axis at texel coordinate t (centres at i + 0.5).
+    let tent = |t: f64, lo: u32, hi: u32| -> f64 {
+        let (first, last) = (lo as f64 + 0.5, hi as f64 + 0.5);
+        if t < first {
+            (1.0 - (first - t)).max(0.0)
+        } else if t > last {
+            (1.0 - (t - last)).max(0.0)
+        } else {
+            1.0
+        }
+    };
     let mut e = 0.0;
-    for i in 0..sub {
-        let v0 = (y as f64 + i as f64 / sub as f64) / h as f64;
-        let v1 = (y as f64 + (i + 1) as f64 / sub as f64) / h as f64;
-        let solid = 2.0 * std::f64::consts::PI / (w * sub) as f64
-            * ((std::f64::consts::PI * v0).cos() - (std::f64::consts::PI * v1).cos());
-        for j in 0..sub {
-            let u = (x as f64 + (j as f64 + 0.5) / sub as f64) / w as f64;
-            e += n.dot(latlong_direction(u, 0.5 * (v0 + v1))).max(0.0) * solid;
+    for yt in (y0 - 1)..=(y1 + 1) {
+        for i in 0..sub {
+            let v0 = (yt as f64 + i as f64 / sub as f64) / h as f64;
+            let v1 = (yt as f64 + (i + 1) as f64 / sub as f64) / h as f64;
+            let wy = tent(0.5 * (v0 + v1) * h as f64, y0, y1);
+            let solid = 2.0 * std::f64::consts::PI / (w * sub) as f64
+                * ((std::f64::consts::PI * v0).cos() - (std::f64::consts::PI * v1).cos());
+            for xt in (x0 - 1)..=(x1 + 1) {
+                for j in 0..sub {
+                    let u = (xt as f64 + (j as f64 + 0.5) / sub as f64) / w as f64;
+                    let wx = tent(u * w as f64, x0, x1);
+                    let dir = latlong_direction(u, 0.5 * (v0 + v1));
+                    e += n.dot(dir).max(0.0) * wx * wy * solid;
+                }
+            }
         }
     }
     e
@@ -461,7 +484,8 @@ fn texel_irradiance(n: DVec3, x: u32, y: u32, w: u32, h: u32) -> f64 {
 /// (on +Z) sees the sphere's lit and shadowed halves.
 /// Every camera sample on the (flat-shaded, convex) Lambert sphere has radiance
 /// `a/pi E(n)`, E the irradiance of the map over the facet's hemisphere: `pi B` from the
-/// constant sky plus the sun's texels integrated by an independent quadrature. Residuals are
+/// constant sky plus the sun's bilinearly interpolated footprint integrated by an independent
+/// quadrature. Residuals are
 /// binned into shadow, terminator and lit (by the facet's cosine to the sun) and each bin's
 /// mean must be within 4.5 measured standard errors: a density that disagrees with where the
 /// samples go (a half-texel shift, a wrong Jacobian, row and column mixed up) biases the lit
@@ -489,10 +513,7 @@ fn latlong_environment_with_a_sun_matches_its_irradiance() {
     for s in &samples {
         let Some(hit) = s.hit else { continue };
         let n = hit.ng.as_dvec3();
-        let sun_e: f64 = sun_texels
-            .iter()
-            .map(|&(x, y)| texel_irradiance(n, x, y, w, h))
-            .sum();
+        let sun_e = block_irradiance(n, (47, 48), (12, 13), w, h);
         let e = std::f64::consts::PI * sky.as_dvec3() + (sun - sky).as_dvec3() * sun_e;
         let expect = albedo.as_dvec3() * e / std::f64::consts::PI;
         let c = n.dot(sun_dir);

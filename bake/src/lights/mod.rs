@@ -5,9 +5,12 @@
 //! punctual light, one environment sample), so no selection probability between kinds is
 //! needed and the densities used for multiple importance sampling are simple.
 
+mod environment;
+
 use glam::{Vec2, Vec3};
-use prt_formats::latlong;
 use std::f32::consts::PI;
+
+use environment::LatLongSampler;
 
 use crate::sampling::{uniform_triangle, Distribution1D};
 use crate::scene::{Environment, PunctualLight, Scene};
@@ -37,14 +40,6 @@ struct EmissiveTriangle {
     area: f32,
 }
 
-/// Importance sampling of a lat-long map: rows by marginal, columns by conditional.
-struct EnvMapSampler {
-    width: usize,
-    height: usize,
-    rows: Distribution1D,
-    columns: Vec<Option<Distribution1D>>,
-}
-
 pub struct LightSet {
     emissive: Vec<EmissiveTriangle>,
     emissive_pick: Option<Distribution1D>,
@@ -52,7 +47,7 @@ pub struct LightSet {
     emissive_index: Vec<u32>,
     pub punctual: Vec<PunctualLight>,
     environment: Environment,
-    env_sampler: Option<EnvMapSampler>,
+    env_sampler: Option<LatLongSampler>,
 }
 
 impl LightSet {
@@ -83,7 +78,7 @@ impl LightSet {
                 width,
                 height,
                 texels,
-            } => EnvMapSampler::new(*width as usize, *height as usize, texels),
+            } => LatLongSampler::new(*width as usize, *height as usize, texels),
             Environment::Constant(_) => None,
         };
         LightSet {
@@ -199,11 +194,7 @@ impl LightSet {
                 width,
                 height,
                 texels,
-            } => {
-                let (u, v) = latlong::direction_to_uv(dir.to_array());
-                let (x, y) = latlong::uv_to_texel(u, v, *width as usize, *height as usize);
-                texels[y * *width as usize + x]
-            }
+            } => environment::latlong_radiance(*width as usize, *height as usize, texels, dir),
         }
     }
 
@@ -310,62 +301,6 @@ impl LightSet {
                 pdf: 0.0,
             }),
         }
-    }
-}
-
-impl EnvMapSampler {
-    fn new(width: usize, height: usize, texels: &[Vec3]) -> Option<EnvMapSampler> {
-        if width == 0 || height == 0 || texels.len() != width * height {
-            return None;
-        }
-        let mut row_weights = Vec::with_capacity(height);
-        let mut columns = Vec::with_capacity(height);
-        for y in 0..height {
-            let sin_t = (PI * (y as f32 + 0.5) / height as f32).sin();
-            let row: Vec<f32> = texels[y * width..(y + 1) * width]
-                .iter()
-                .map(|&c| luminance(c).max(0.0) * sin_t)
-                .collect();
-            let d = Distribution1D::new(&row);
-            row_weights.push(d.as_ref().map_or(0.0, |d| d.total() as f32));
-            columns.push(d);
-        }
-        let rows = Distribution1D::new(&row_weights)?;
-        Some(EnvMapSampler {
-            width,
-            height,
-            rows,
-            columns,
-        })
-    }
-
-    fn sample(&self, u: Vec2) -> Option<(Vec3, f32)> {
-        let (y, fy) = self.rows.sample(u.y);
-        let cols = self.columns[y].as_ref()?;
-        let (x, fx) = cols.sample(u.x);
-        let uu = (x as f32 + fx) / self.width as f32;
-        let vv = (y as f32 + fy) / self.height as f32;
-        let dir = Vec3::from_array(latlong::uv_to_direction(uu, vv));
-        let sin_t = (PI * vv).sin();
-        if sin_t <= 0.0 {
-            return None;
-        }
-        let pdf_uv = self.rows.pmf(y) * cols.pmf(x) * (self.width * self.height) as f32;
-        Some((dir, pdf_uv / (2.0 * PI * PI * sin_t)))
-    }
-
-    fn pdf(&self, dir: Vec3) -> f32 {
-        let (u, v) = latlong::direction_to_uv(dir.to_array());
-        let (x, y) = latlong::uv_to_texel(u, v, self.width, self.height);
-        let Some(cols) = self.columns[y].as_ref() else {
-            return 0.0;
-        };
-        let sin_t = (PI * v).sin();
-        if sin_t <= 0.0 {
-            return 0.0;
-        }
-        let pdf_uv = self.rows.pmf(y) * cols.pmf(x) * (self.width * self.height) as f32;
-        pdf_uv / (2.0 * PI * PI * sin_t)
     }
 }
 
