@@ -2,22 +2,26 @@
 //! the bake-file container, image output, and the material-override syntax of the CLIs.
 //!
 //! * [`container`]: the bake file (safetensors layout, checksums, versioning, zero-copy reads).
+//! * [`envmap`]: loading and checking lat-long environment maps (EXR, HDR, in memory).
 //! * [`family`]: the BRDF families and which parameter fits which family.
 //! * [`image_io`]: EXR/PNG writing (atomic) and EXR reading.
 //! * [`latlong`]: the lat-long (equirectangular) environment mapping, uv <-> direction.
 //! * [`overrides`]: `--set MATERIAL.PARAM=VALUE` parsing.
 //! * [`basis`]: the persisted BRDF basis of editable materials and its evaluation.
 //! * [`pixel`]: the per-pixel bake schema (metadata, slots, relighting weights).
+//! * [`view`]: the `--camera eye=.. target=.. fov=..` syntax and the camera frame it gives.
 
 #![warn(missing_docs)]
 
 pub mod basis;
 pub mod container;
+pub mod envmap;
 pub mod family;
 pub mod image_io;
 pub mod latlong;
 pub mod overrides;
 pub mod pixel;
+pub mod view;
 
 pub use container::{
     BakeFile, BakeWriter, Dtype, Element, FormatError, TensorView, FORMAT_NAME, SCHEMA_VERSION,

@@ -1055,6 +1055,37 @@ fn environment_maps_exr_and_hdr() {
     dir.write("broken.hdr", b"#?RADIANCE\ngarbage");
     let e = load_err(&dir.config("[environment]\nmap = \"broken.hdr\"\n"));
     assert!(e.contains("broken.hdr"), "{e}");
+    // A NaN or infinite texel is refused, naming the file and the texel; negative channels
+    // (lossy compression's ringing) are clamped to 0 with a warning.
+    exr::prelude::write_rgb_file(dir.0.join("nan.exr"), w, h, |x, y| {
+        let r = if (x, y) == (2, 1) { f32::NAN } else { 1.0 };
+        (r, 1.0f32, 1.0f32)
+    })
+    .unwrap();
+    let e = load_err(&dir.config("[environment]\nmap = \"nan.exr\"\n"));
+    assert!(
+        e.contains("nan.exr") && e.contains("NaN or infinite") && e.contains("column 2, row 1"),
+        "{e}"
+    );
+    exr::prelude::write_rgb_file(dir.0.join("negative.exr"), w, h, |x, y| {
+        let g = if (x, y) == (1, 0) { -0.25 } else { 0.5 };
+        (1.0f32, g, 1.0f32)
+    })
+    .unwrap();
+    let (scene, warnings) =
+        load_with_warnings(&dir.config("[environment]\nmap = \"negative.exr\"\n"))
+            .unwrap_or_else(|e| panic!("{e}"));
+    let Environment::LatLong { texels, .. } = &scene.environment else {
+        panic!("{:?}", scene.environment)
+    };
+    assert_eq!(texels[1], Vec3::new(1.0, 0.0, 1.0));
+    assert_eq!(texels[0], Vec3::new(1.0, 0.5, 1.0));
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.contains("negative.exr") && w.contains("1 texel(s)")),
+        "{warnings:?}"
+    );
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -370,11 +370,12 @@ impl Loader<'_> {
                         source: Box::new(source),
                     }
                 })?;
-                if report.replaced_texels > 0 {
+                if report.clamped_texels > 0 {
                     self.warnings.push(format!(
-                        "environment map {}: {} NaN, infinite or negative texel(s) set to black",
+                        "environment map {}: {} texel(s) with negative channels (lossy \
+                         compression rings around bright spots) clamped to 0",
                         path.display(),
-                        report.replaced_texels
+                        report.clamped_texels
                     ));
                 }
                 Ok(env)
