@@ -18,3 +18,4 @@ pub mod sampling;
 pub mod scene;
 pub mod testing;
 pub mod units;
+pub mod view;

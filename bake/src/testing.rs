@@ -35,6 +35,7 @@ impl SceneBuilder {
                     45f32.to_radians(),
                 ),
                 environment: Environment::Constant(Vec3::ZERO),
+                environment_rotation: 0.0,
                 skipped_triangles: 0,
             },
         }

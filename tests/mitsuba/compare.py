@@ -110,7 +110,9 @@ CASES = {
             "chrome": dict(editable=True, family="ggx", kd=[0.05, 0.1, 0.2]),
         },
         edits={"floor.kd": [0.6, 0.55, 0.45], "chrome.ks": 0.75, "chrome.alpha": 0.3},
-        environment={"map": "envsphere/sky.exr"},
+        # Turned 90 degrees about +Y by the config ([environment] rotation), so the rotation's
+        # sign is checked by a renderer that shares nothing with ours.
+        environment={"map": "envsphere/sky.exr", "rotation": 90.0},
     ),
 }
 
@@ -356,8 +358,11 @@ def mitsuba_scene(case, gltf_path, env, work):
         # where the project puts them half a texel away and clamps beyond them; the map is
         # handed over with its rows refined so that Mitsuba's interpolation is the project's
         # exactly (mitsuba_rows).
+        # The config's `rotation` (degrees about +Y, right-hand rule, docs/config.md) is
+        # Mitsuba's rotate about +Y by the same angle, applied after the half turn.
+        turn = 180.0 + float(env.get("rotation", 0.0))
         scene["sky"] = {"type": "envmap", "filename": mitsuba_rows_file(env["map"]),
-                        "to_world": mi.ScalarTransform4f().rotate([0, 1, 0], 180.0)}
+                        "to_world": mi.ScalarTransform4f().rotate([0, 1, 0], turn)}
     return mi.load_dict(scene), mats
 
 
@@ -407,6 +412,8 @@ def bake_and_relight(case, bins, gltf_path, env, work, seed, tag):
         lines += ["", "[environment]", "color = %s" % toml_value(env["color"])]
     if env and "map" in env:
         lines += ["", "[environment]", "map = %s" % toml_value(os.path.abspath(env["map"]))]
+        if env.get("rotation"):
+            lines += ["rotation = %r" % float(env["rotation"])]
     for name, table in case["materials"].items():
         lines += ["", "[materials.%s]" % name]
         lines += ["%s = %s" % (k, toml_value(v)) for k, v in table.items()]
@@ -581,7 +588,7 @@ def main():
         gltf_path, env = os.path.join(ROOT, case["scene"]), case["environment"]
         if case.get("generate"):
             gltf_path = os.path.join(args.work, case["scene"])
-            env = {"map": os.path.join(args.work, env["map"])}
+            env = dict(env, map=os.path.join(args.work, env["map"]))
             write_envsphere(os.path.dirname(gltf_path), env["map"])
         seeds = range(args.first_seed, args.first_seed + case["replicas"])
         project = [bake_and_relight(case, args.bin, gltf_path, env, work, s, tag)
@@ -614,7 +621,7 @@ def main():
                 pwork = os.path.join(work, "envrot90")
                 os.makedirs(pwork)
                 pgltf = os.path.join(pwork, os.path.basename(gltf_path))
-                penv = {"map": os.path.join(pwork, os.path.basename(env["map"]))}
+                penv = dict(env, map=os.path.join(pwork, os.path.basename(env["map"])))
                 write_envsphere(pwork, penv["map"], turn_quarter=True)
                 planted = [bake_and_relight(case, args.bin, pgltf, penv, pwork, s, tag)
                            for s in seeds]

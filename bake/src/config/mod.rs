@@ -43,8 +43,13 @@ pub enum Mode {
 pub enum EnvironmentConfig {
     /// Constant radiance (linear RGB), already multiplied by `intensity`.
     Color(Vec3),
-    /// An EXR or Radiance HDR lat-long map (path resolved against the config's folder), scaled.
-    Map { path: PathBuf, intensity: f32 },
+    /// An EXR or Radiance HDR lat-long map (path resolved against the config's folder),
+    /// scaled, and turned `rotation` degrees about +Y (right-hand rule; docs/conventions.md).
+    Map {
+        path: PathBuf,
+        intensity: f32,
+        rotation: f32,
+    },
 }
 
 /// Per-material settings from the config's `[materials.NAME]` tables.
@@ -264,6 +269,7 @@ struct RawEnvironment {
     color: Option<Rgb>,
     map: Option<String>,
     intensity: Option<f32>,
+    rotation: Option<f32>,
 }
 
 #[derive(Deserialize)]
@@ -448,6 +454,13 @@ impl RawConfig {
                         ))
                     }
                     (Some(Rgb(col)), None) => {
+                        if env.rotation.is_some() {
+                            return Err(c.err(
+                                "environment.rotation",
+                                "only a `map` can be rotated (a constant colour is the same \
+                                 from every direction)",
+                            ));
+                        }
                         let col = c.color("environment.color", col)?;
                         let scaled = c.color("environment.color", col * intensity)?;
                         EnvironmentConfig::Color(scaled)
@@ -467,7 +480,15 @@ impl RawConfig {
                                 ),
                             ));
                         }
-                        EnvironmentConfig::Map { path, intensity }
+                        let rotation = match env.rotation {
+                            Some(r) => c.range_f32("environment.rotation", r, -360.0, 360.0)?,
+                            None => 0.0,
+                        };
+                        EnvironmentConfig::Map {
+                            path,
+                            intensity,
+                            rotation,
+                        }
                     }
                 }
             }
@@ -689,5 +710,24 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("not both"), "{e}");
+        let e = parse("scene = \"x.gltf\"\n[environment]\ncolor = 1\nrotation = 30")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("environment.rotation") && e.contains("only a `map`"),
+            "{e}"
+        );
+        let e = parse("scene = \"x.gltf\"\n[environment]\nmap = \"a.exr\"\nrotation = 400")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("environment.rotation") && e.contains("400"),
+            "{e}"
+        );
+        let c = parse("scene = \"x.gltf\"\n[environment]\nmap = \"a.exr\"\nrotation = -45")
+            .expect("a rotated map");
+        assert!(
+            matches!(c.environment, EnvironmentConfig::Map { rotation, .. } if rotation == -45.0)
+        );
     }
 }

@@ -40,9 +40,16 @@ impl BakeConfig {
             EnvironmentConfig::Color(c) => {
                 let _ = writeln!(w, "color = {}", vec3(*c));
             }
-            EnvironmentConfig::Map { path, intensity } => {
+            EnvironmentConfig::Map {
+                path,
+                intensity,
+                rotation,
+            } => {
                 let _ = writeln!(w, "map = {}", string(&path_text(path, folder)));
                 let _ = writeln!(w, "intensity = {}", float(*intensity));
+                if *rotation != 0.0 {
+                    let _ = writeln!(w, "rotation = {}", float(*rotation));
+                }
             }
         }
 

@@ -48,6 +48,8 @@ pub struct LightSet {
     pub punctual: Vec<PunctualLight>,
     environment: Environment,
     env_sampler: Option<LatLongSampler>,
+    /// `(sin, cos)` of the environment's rotation about +Y (`Scene::environment_rotation`).
+    env_rotation: (f32, f32),
 }
 
 impl LightSet {
@@ -88,6 +90,7 @@ impl LightSet {
             punctual: scene.lights.clone(),
             environment: scene.environment.clone(),
             env_sampler,
+            env_rotation: scene.environment_rotation.to_radians().sin_cos(),
         }
     }
 
@@ -194,7 +197,10 @@ impl LightSet {
                 width,
                 height,
                 texels,
-            } => environment::latlong_radiance(*width as usize, *height as usize, texels, dir),
+            } => {
+                let local = self.world_to_map(dir);
+                environment::latlong_radiance(*width as usize, *height as usize, texels, local)
+            }
         }
     }
 
@@ -211,7 +217,10 @@ impl LightSet {
                 let wi = t * local.x + b * local.y + n * local.z;
                 (wi, local.z / PI)
             }
-            Some(s) => s.sample(u)?,
+            Some(s) => {
+                let (local, pdf) = s.sample(u)?;
+                (self.map_to_world(local), pdf)
+            }
         };
         if !(pdf > 0.0 && pdf.is_finite()) {
             return None;
@@ -231,8 +240,23 @@ impl LightSet {
         }
         match &self.env_sampler {
             None => wi.dot(n).max(0.0) / PI,
-            Some(s) => s.pdf(wi),
+            Some(s) => s.pdf(self.world_to_map(wi)),
         }
+    }
+
+    /// A world direction in the map's own frame: `R_y(-rotation) d`.
+    #[inline]
+    fn world_to_map(&self, d: Vec3) -> Vec3 {
+        let (s, c) = self.env_rotation;
+        Vec3::new(c * d.x - s * d.z, d.y, s * d.x + c * d.z)
+    }
+
+    /// A direction of the map's frame in the world: `R_y(rotation) d` (the right-hand rule
+    /// about +Y takes +Z towards +X).
+    #[inline]
+    fn map_to_world(&self, d: Vec3) -> Vec3 {
+        let (s, c) = self.env_rotation;
+        Vec3::new(c * d.x + s * d.z, d.y, -s * d.x + c * d.z)
     }
 
     /// Incident light from punctual light `i` at `p`: direction, distance and the delta

@@ -140,6 +140,10 @@ pub struct Scene {
     pub lights: Vec<PunctualLight>,
     pub camera: Camera,
     pub environment: Environment,
+    /// Rotation of a lat-long environment about +Y, degrees (right-hand rule: +90 turns what
+    /// was seen towards -Z to be seen towards -X; docs/conventions.md). The radiance arriving
+    /// from direction d is the map's value at `R_y(-rotation) d`.
+    pub environment_rotation: f32,
     /// Triangles dropped on load because they were degenerate, non-finite or beyond +-1e15 m.
     pub skipped_triangles: usize,
 }

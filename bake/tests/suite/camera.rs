@@ -42,3 +42,54 @@ fn field_of_view_spans_the_height_and_the_aspect_widens_it() {
         assert!(integ.camera_ray(w as f32, cy).1.dot(cam.right) > 0.0);
     }
 }
+
+/// A `--camera` eye inside a closed object is refused, naming the object; eyes outside it, and
+/// inside a room whose walls face inwards (the closed-sphere scene), are accepted. The frame a
+/// `--camera` spec gives is the scene camera's, field for field.
+#[test]
+fn an_eye_inside_an_object_is_refused() {
+    use prt_bake::testing::inside_sphere_scene;
+    use prt_bake::view::{camera_from_frame, check_eye_outside, ViewError};
+    use prt_formats::view::CameraSpec;
+
+    let scene = furnace_scene(Vec3::splat(0.5), Vec3::ONE);
+    let accel = Accel::build(&scene);
+    for eye in [
+        Vec3::ZERO,
+        Vec3::new(0.3, -0.5, 0.2),
+        Vec3::new(0.0, 0.0, 0.95),
+    ] {
+        match check_eye_outside(&scene, &accel, eye) {
+            Err(ViewError::InsideGeometry {
+                material,
+                back,
+                total,
+                ..
+            }) => {
+                assert_eq!(material, "sphere");
+                assert!(back >= 22 && total == 26, "{back} of {total}");
+            }
+            other => panic!("eye {eye} inside the unit sphere: {other:?}"),
+        }
+    }
+    for eye in [
+        Vec3::new(0.0, 0.0, 4.0),
+        Vec3::new(1.05, 0.0, 0.0),
+        Vec3::splat(3.0),
+    ] {
+        check_eye_outside(&scene, &accel, eye).unwrap_or_else(|e| panic!("eye {eye}: {e}"));
+    }
+    let room = inside_sphere_scene(Vec3::splat(0.5), Vec3::splat(0.5), Vec3::ONE, false);
+    let room_accel = Accel::build(&room);
+    check_eye_outside(&room, &room_accel, Vec3::new(0.1, 0.2, -0.3))
+        .unwrap_or_else(|e| panic!("inside an inward-facing room: {e}"));
+
+    let spec: CameraSpec = "eye=0,0,4 target=0,0,0 fov=35".parse().expect("spec");
+    let cam = camera_from_frame(&spec.frame().expect("frame"));
+    let s = &scene.camera;
+    assert!((cam.position - s.position).length() < 1e-6);
+    assert!((cam.forward - s.forward).length() < 1e-6);
+    assert!((cam.right - s.right).length() < 1e-6);
+    assert!((cam.up - s.up).length() < 1e-6);
+    assert!((cam.yfov - s.yfov).abs() < 1e-6);
+}

@@ -1225,7 +1225,8 @@ error_target = 0.01
         c.environment,
         EnvironmentConfig::Map {
             path: PathBuf::from("/project/sky.hdr"),
-            intensity: 0.5
+            intensity: 0.5,
+            rotation: 0.0,
         }
     );
     assert_eq!(c.materials.len(), 2);

@@ -4,11 +4,17 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use clap::Parser;
+use prt_bake::accel::Accel;
+use prt_bake::progress::Progress;
 use prt_bake::reference::render_true;
 use prt_bake::run::{apply_override, load};
+use prt_bake::scene::envmap::load_latlong;
+use prt_bake::scene::Environment;
+use prt_bake::view::{camera_from_frame, check_eye_outside};
 use prt_cli::Stderr;
+use prt_formats::view::CameraSpec;
 use prt_formats::MaterialOverride;
 
 #[derive(Parser, Debug)]
@@ -36,6 +42,21 @@ struct Args {
     /// Random seed (default: the config's).
     #[arg(long)]
     seed: Option<u64>,
+    /// View instead of the config's camera: `"eye=x,y,z target=x,y,z fov=DEGREES"` (vertical
+    /// field of view; +Y up).
+    #[arg(long, value_name = "SPEC")]
+    camera: Option<CameraSpec>,
+    /// Light the scene with this lat-long map (.exr or .hdr) instead of the config's
+    /// environment.
+    #[arg(long, value_name = "FILE")]
+    env: Option<PathBuf>,
+    /// Multiplier of `--env`'s texels.
+    #[arg(long, default_value_t = 1.0, requires = "env", allow_hyphen_values = true)]
+    env_intensity: f32,
+    /// Turn the environment map about +Y by this many degrees (right-hand rule: +90 takes what
+    /// was seen towards -Z to -X), on top of the config's `rotation`.
+    #[arg(long, value_name = "DEGREES", allow_hyphen_values = true)]
+    env_rotate: Option<f32>,
     /// Exposure multiplier for the PNG.
     #[arg(long, default_value_t = 1.0)]
     exposure: f32,
@@ -54,6 +75,36 @@ fn run(args: Args) -> Result<()> {
     for o in &args.set {
         apply_override(&mut scene, o)?;
     }
+    if let Some(path) = &args.env {
+        let (env, report) = load_latlong(path, args.env_intensity)
+            .with_context(|| format!("--env {}", path.display()))?;
+        if report.clamped_texels > 0 {
+            progress.warn(&format!(
+                "--env {}: {} texel(s) with negative channels clamped to 0",
+                path.display(),
+                report.clamped_texels
+            ));
+        }
+        scene.environment = env;
+        scene.environment_rotation = 0.0;
+    }
+    if let Some(deg) = args.env_rotate {
+        if !(deg.is_finite() && (-360.0..=360.0).contains(&deg)) {
+            bail!("--env-rotate {deg}: give degrees in [-360, 360]");
+        }
+        if !matches!(scene.environment, Environment::LatLong { .. }) {
+            bail!(
+                "--env-rotate: the scene's environment is not a map (give --env FILE, or a \
+                 config with [environment] map)"
+            );
+        }
+        scene.environment_rotation += deg;
+    }
+    let accel = Accel::build(&scene);
+    if let Some(spec) = &args.camera {
+        scene.camera = camera_from_frame(&spec.frame()?);
+    }
+    check_eye_outside(&scene, &accel, scene.camera.position)?;
     let width = args.width.unwrap_or(config.width);
     let height = args.height.unwrap_or(config.height);
     let spp = args.spp.unwrap_or(config.spp);

@@ -173,4 +173,48 @@ fn reference_refuses_bad_input() {
     run(&[s(&config), "--set", "nosuch.kd=1"], &["nosuch"]);
     run(&[s(&config), "--set", "bunny=1"], &["bunny=1"]);
     run(&[s(&dir.path().join("missing.toml"))], &["missing.toml"]);
+    // Views: inside the bunny (at its centre), zero field of view, straight down.
+    let cfg = s(&config);
+    run(
+        &[cfg, "--camera", "eye=0.093,0.06,-0.2 target=0,0.2,0 fov=40"],
+        &["inside", "bunny"],
+    );
+    run(
+        &[cfg, "--camera", "eye=0,1,3 target=0,0,0 fov=0"],
+        &["fov", "(0, 180)"],
+    );
+    run(
+        &[cfg, "--camera", "eye=0,1,0 target=0,0,0 fov=40"],
+        &["vertical"],
+    );
+    run(
+        &[cfg, "--camera", "eye=0,1,3 fov=40"],
+        &["target is missing"],
+    );
+    // Environments: rotating a scene without a map; unreadable, non-finite and missing maps.
+    run(&[cfg, "--env-rotate", "90"], &["--env-rotate", "not a map"]);
+    let garbage = dir.path().join("garbage.exr");
+    std::fs::write(&garbage, b"not an exr").expect("write");
+    run(&[cfg, "--env", s(&garbage)], &["garbage.exr", "OpenEXR"]);
+    let nan = dir.path().join("nan.exr");
+    let mut texels = vec![[1.0f32; 3]; 8];
+    texels[5] = [1.0, f32::NAN, 1.0];
+    prt_formats::write_exr(&nan, 4, 2, &texels).expect("write");
+    run(
+        &[cfg, "--env", s(&nan)],
+        &["nan.exr", "NaN or infinite", "column 1, row 1"],
+    );
+    run(
+        &[cfg, "--env", s(&dir.path().join("none.exr"))],
+        &["none.exr"],
+    );
+    let sky = scenes().join("envmaps/studio.exr");
+    run(
+        &[cfg, "--env", s(&sky), "--env-rotate", "400"],
+        &["--env-rotate", "400"],
+    );
+    run(
+        &[cfg, "--env", s(&sky), "--env-intensity", "-1"],
+        &["intensity", "-1"],
+    );
 }

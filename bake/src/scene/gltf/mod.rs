@@ -356,6 +356,10 @@ impl Loader<'_> {
             lights,
             camera,
             environment,
+            environment_rotation: match &self.config.environment {
+                EnvironmentConfig::Map { rotation, .. } => *rotation,
+                EnvironmentConfig::Color(_) => 0.0,
+            },
             skipped_triangles: geo.skipped,
         })
     }
@@ -363,7 +367,9 @@ impl Loader<'_> {
     fn environment(&mut self) -> Result<Environment, SceneError> {
         match &self.config.environment {
             EnvironmentConfig::Color(c) => Ok(Environment::Constant(*c)),
-            EnvironmentConfig::Map { path, intensity } => {
+            EnvironmentConfig::Map {
+                path, intensity, ..
+            } => {
                 let (env, report) = envmap::load_latlong(path, *intensity).map_err(|source| {
                     SceneError::Environment {
                         path: path.clone(),

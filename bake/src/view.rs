@@ -1,0 +1,96 @@
+//! A view asked for on the command line (`--camera eye=.. target=.. fov=..`,
+//! [`prt_formats::view`]): the scene camera it gives, and the check that the eye is not inside
+//! an object, where every pixel would see the inside of one surface and the image would be
+//! black or meaningless without any error.
+
+use glam::Vec3;
+use prt_formats::view::CameraFrame;
+
+use crate::accel::Accel;
+use crate::scene::{Camera, Scene};
+
+/// The scene camera of a validated `--camera` frame (the same frame the config's `[camera]`
+/// table gives, so `reference` and `relight` render the same view).
+pub fn camera_from_frame(frame: &CameraFrame) -> Camera {
+    Camera {
+        position: Vec3::from_array(frame.position),
+        forward: Vec3::from_array(frame.forward),
+        up: Vec3::from_array(frame.up),
+        right: Vec3::from_array(frame.right),
+        yfov: frame.yfov,
+    }
+}
+
+/// Why a view cannot be rendered.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ViewError {
+    /// The eye is enclosed by a surface (seen from behind in most directions).
+    #[error(
+        "the camera at ({:.4}, {:.4}, {:.4}) is inside `{material}`: {back} of {total} \
+         directions from the eye meet the back of a surface first; move the eye out of the \
+         object",
+        eye.x,
+        eye.y,
+        eye.z
+    )]
+    InsideGeometry {
+        /// The eye.
+        eye: Vec3,
+        /// The material most often seen from behind.
+        material: String,
+        /// Directions that met a back side first.
+        back: usize,
+        /// Directions tried.
+        total: usize,
+    },
+}
+
+/// Refuses an eye enclosed by geometry: from inside a closed object, every direction meets a
+/// surface from behind (its interpolated normal points away from the eye). 26 directions (the
+/// cube's faces, edges and corners) are traced; the eye is inside when at least 22 of them hit
+/// a back side first. An eye in the open, or in a room whose walls face inwards, sees front
+/// sides; a thin sheet or an open mesh behind the eye cannot fool a majority of directions.
+pub fn check_eye_outside(scene: &Scene, accel: &Accel, eye: Vec3) -> Result<(), ViewError> {
+    let mut back_by_material = vec![0usize; scene.materials.len()];
+    let mut total = 0;
+    for dx in -1i32..=1 {
+        for dy in -1i32..=1 {
+            for dz in -1i32..=1 {
+                if (dx, dy, dz) == (0, 0, 0) {
+                    continue;
+                }
+                total += 1;
+                let dir = Vec3::new(dx as f32, dy as f32, dz as f32).normalize();
+                let Some(hit) = accel.intersect(eye, dir, 0.0, f32::INFINITY) else {
+                    continue;
+                };
+                let tri = scene.triangles[hit.triangle as usize];
+                let [na, nb, nc] = tri.map(|v| scene.normals[v as usize]);
+                let n = na * (1.0 - hit.bary.x - hit.bary.y) + nb * hit.bary.x + nc * hit.bary.y;
+                if n.dot(dir) > 0.0 {
+                    let m = scene.triangle_material[hit.triangle as usize] as usize;
+                    if let Some(count) = back_by_material.get_mut(m) {
+                        *count += 1;
+                    }
+                }
+            }
+        }
+    }
+    let back: usize = back_by_material.iter().sum();
+    if back * 26 >= 22 * total {
+        let worst = (0..back_by_material.len())
+            .max_by_key(|&m| (back_by_material[m], std::cmp::Reverse(m)))
+            .unwrap_or(0);
+        return Err(ViewError::InsideGeometry {
+            eye,
+            material: scene
+                .materials
+                .get(worst)
+                .map_or_else(|| "?".to_string(), |m| m.name.clone()),
+            back,
+            total,
+        });
+    }
+    Ok(())
+}
