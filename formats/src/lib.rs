@@ -6,6 +6,8 @@
 //! * [`family`]: the BRDF families and which parameter fits which family.
 //! * [`image_io`]: EXR/PNG writing (atomic) and EXR reading.
 //! * [`latlong`]: the lat-long (equirectangular) environment mapping, uv <-> direction.
+//! * [`lighting`]: the lighting bases of the per-vertex mode (cube maps, Haar wavelets,
+//!   spherical harmonics, the Gaussian prefilter).
 //! * [`overrides`]: `--set MATERIAL.PARAM=VALUE` parsing.
 //! * [`basis`]: the persisted BRDF basis of editable materials and its evaluation.
 //! * [`pixel`]: the per-pixel bake schema (metadata, slots, relighting weights).
@@ -19,6 +21,7 @@ pub mod envmap;
 pub mod family;
 pub mod image_io;
 pub mod latlong;
+pub mod lighting;
 pub mod overrides;
 pub mod pixel;
 pub mod view;
