@@ -3,6 +3,7 @@
 
 mod container;
 mod image_io;
+mod lighting;
 mod metadata;
 mod overrides;
 mod python_compat;
