@@ -2,7 +2,8 @@
 # Compares the project's relit images with Mitsuba 3 renders (tests/mitsuba/compare.py; what
 # it checks: docs/conventions.md, "Checked against Mitsuba 3"). Makes a virtual environment
 # with pinned versions under target/mitsuba-venv (reused while the pins are unchanged), builds
-# the binaries (a no-op after `cargo test --release --workspace`), and runs the comparison.
+# the binaries (a no-op after `cargo test --release --workspace`), and runs the comparisons
+# (compare.py: relit images; background.py: the environment seen directly).
 # Arguments go to compare.py (e.g. --plant all, --scenes cornell).
 #
 # Needs PyPI the first time. PRT_SKIP_MITSUBA=1 skips the check (offline machines); without
@@ -33,5 +34,7 @@ if [[ ! -x $VENV/bin/python || "$(cat "$VENV/pins" 2>/dev/null)" != "$PINS" ]]; 
     echo "$PINS" >"$VENV/pins"
 fi
 
-cargo build --release --quiet -p prt-cli --bin bake --bin relight
-exec "$VENV/bin/python" tests/mitsuba/compare.py "$@"
+cargo build --release --quiet -p prt-cli --bin bake --bin relight --bin reference
+"$VENV/bin/python" tests/mitsuba/compare.py "$@"
+# The environment seen directly (bilinear lookups), a few seconds.
+exec "$VENV/bin/python" tests/mitsuba/background.py
