@@ -36,6 +36,7 @@ const KEYS: &[&str] = &[
     "color",
     "map",
     "intensity",
+    "rotation",
     "materials",
     "editable",
     "family",
@@ -112,6 +113,7 @@ seed = 9223372036854775807
 [environment]
 map = "sky.exr"
 intensity = 0.5
+rotation = -90
 
 [materials.ring]
 editable = true
