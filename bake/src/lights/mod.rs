@@ -11,6 +11,7 @@ use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
 use environment::LatLongSampler;
+use prt_formats::lighting::cubemap::rotation_y;
 
 use crate::sampling::{uniform_triangle, Distribution1D};
 use crate::scene::{Environment, PunctualLight, Scene};
@@ -48,8 +49,9 @@ pub struct LightSet {
     pub punctual: Vec<PunctualLight>,
     environment: Environment,
     env_sampler: Option<LatLongSampler>,
-    /// `(sin, cos)` of the environment's rotation about +Y (`Scene::environment_rotation`).
-    env_rotation: (f32, f32),
+    /// The environment's rotation about +Y (`Scene::environment_rotation`), row-major, from
+    /// the one definition of the convention (`prt_formats::lighting::cubemap::rotation_y`).
+    env_rotation: [[f32; 3]; 3],
 }
 
 impl LightSet {
@@ -90,7 +92,8 @@ impl LightSet {
             punctual: scene.lights.clone(),
             environment: scene.environment.clone(),
             env_sampler,
-            env_rotation: scene.environment_rotation.to_radians().sin_cos(),
+            env_rotation: rotation_y(scene.environment_rotation as f64)
+                .map(|row| row.map(|x| x as f32)),
         }
     }
 
@@ -244,19 +247,27 @@ impl LightSet {
         }
     }
 
-    /// A world direction in the map's own frame: `R_y(-rotation) d`.
+    /// A world direction in the map's own frame: `R_y(-rotation) d = R^T d`.
     #[inline]
     fn world_to_map(&self, d: Vec3) -> Vec3 {
-        let (s, c) = self.env_rotation;
-        Vec3::new(c * d.x - s * d.z, d.y, s * d.x + c * d.z)
+        let m = &self.env_rotation;
+        Vec3::new(
+            m[0][0] * d.x + m[1][0] * d.y + m[2][0] * d.z,
+            m[0][1] * d.x + m[1][1] * d.y + m[2][1] * d.z,
+            m[0][2] * d.x + m[1][2] * d.y + m[2][2] * d.z,
+        )
     }
 
     /// A direction of the map's frame in the world: `R_y(rotation) d` (the right-hand rule
     /// about +Y takes +Z towards +X).
     #[inline]
     fn map_to_world(&self, d: Vec3) -> Vec3 {
-        let (s, c) = self.env_rotation;
-        Vec3::new(c * d.x + s * d.z, d.y, -s * d.x + c * d.z)
+        let m = &self.env_rotation;
+        Vec3::new(
+            m[0][0] * d.x + m[0][1] * d.y + m[0][2] * d.z,
+            m[1][0] * d.x + m[1][1] * d.y + m[1][2] * d.z,
+            m[2][0] * d.x + m[2][1] * d.y + m[2][2] * d.z,
+        )
     }
 
     /// Incident light from punctual light `i` at `p`: direction, distance and the delta
