@@ -6,8 +6,13 @@
 //! current slot coefficients ([`prt_formats::pixel::group_weights`]): uncompressed, one
 //! multiply-add per stored value and channel; compressed (PCA over pixels), the K components
 //! are contracted once per frame and each pixel costs K multiply-adds per channel.
+//!
+//! For the coming per-vertex mode (docs/vertex.md): [`light`] computes an environment's light
+//! coefficients (cube map, Haar, coarse cubes, prefiltered cubes).
 
 #![warn(missing_docs)]
+
+pub mod light;
 
 use std::path::Path;
 use std::time::Instant;

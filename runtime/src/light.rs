@@ -1,0 +1,212 @@
+//! The light coefficients of an environment for per-vertex relighting (docs/vertex.md,
+//! sections 1 and 4): what the runtime computes once each time the light changes (a new map,
+//! or a rotation of the current one), before touching any vertex.
+//!
+//! - the environment resampled (turned about +Y) into the cube map 6x64x64 that direct light
+//!   is stored against, and its area-weighted Haar coefficients `C0` per channel, so that the
+//!   direct light at a vertex is a sparse dot product with its stored terms;
+//! - the exact 2x downsamplings to 6x8x8 (`C1`, one- reflection light) and 6x2x2 (`C2`,
+//!   two reflections): the mean radiance over each coarse texel's solid angle, the
+//!   coefficients of the environment's projection onto the coarse texels' box functions;
+//! - the environment seen through the **normalized** Gaussians of the specular split, one cube
+//!   per width (width 0: the 6x64x64 cube itself), read at mirror directions when shading.
+//!
+//! Everything here comes from `prt_formats::lighting`, the definitions the baker stores
+//! transfer against.
+
+use prt_formats::envmap::LatLongMap;
+use prt_formats::lighting::{prefilter, CubeMap, HaarCube, LightingError};
+
+/// Side of the cube map direct light (T0) is stored against.
+pub const DIRECT_SIZE: usize = 64;
+/// Side of the cube map one-reflection light (T1) is stored against.
+pub const ONE_BOUNCE_SIZE: usize = 8;
+/// Side of the cube map two-reflection light (T2) is stored against.
+pub const TWO_BOUNCE_SIZE: usize = 2;
+
+/// The coefficients of one environment (see the module documentation).
+#[derive(Debug, Clone)]
+pub struct LightCoefficients {
+    /// The environment as a 6 x [`DIRECT_SIZE`]^2 cube map (after its rotation).
+    pub cube: CubeMap,
+    /// `C0`: the area-weighted Haar coefficients of `cube`, `[red, green, blue]`.
+    pub haar: [Vec<f32>; 3],
+    /// `C1`: mean radiance per texel of the 6 x [`ONE_BOUNCE_SIZE`]^2 cube.
+    pub one_bounce: CubeMap,
+    /// `C2`: mean radiance per texel of the 6 x [`TWO_BOUNCE_SIZE`]^2 cube.
+    pub two_bounce: CubeMap,
+    /// The Gaussian widths (degrees) of `prefiltered`.
+    pub widths_deg: Vec<f64>,
+    /// Per width, the environment averaged over the normalized Gaussian about each
+    /// direction: `integral G(angle(w, r)) L(w) dw / integral G dw`, on the prefilter's own
+    /// cube size (width 0: `cube`).
+    pub prefiltered: Vec<CubeMap>,
+}
+
+impl LightCoefficients {
+    /// The coefficients of `map` turned `rotation_deg` degrees about +Y (the right-hand rule;
+    /// docs/conventions.md), with prefiltered cubes for the specular split's `widths_deg`.
+    pub fn from_latlong(
+        map: &LatLongMap,
+        rotation_deg: f64,
+        widths_deg: &[f64],
+    ) -> Result<LightCoefficients, LightingError> {
+        if !rotation_deg.is_finite() {
+            return Err(LightingError::InvalidParameter {
+                what: "environment rotation (degrees)",
+                expected: "a finite number",
+                value: rotation_deg,
+            });
+        }
+        let cube = CubeMap::from_latlong(
+            &map.texels,
+            map.width,
+            map.height,
+            DIRECT_SIZE,
+            rotation_deg,
+        )?;
+        Self::from_cube(cube, widths_deg)
+    }
+
+    /// The coefficients of an environment already resampled to a 6 x [`DIRECT_SIZE`]^2 cube.
+    pub fn from_cube(
+        cube: CubeMap,
+        widths_deg: &[f64],
+    ) -> Result<LightCoefficients, LightingError> {
+        if cube.size() != DIRECT_SIZE {
+            return Err(LightingError::LengthMismatch {
+                what: "cube-map side for per-vertex light (6 x 64 x 64)",
+                expected: DIRECT_SIZE,
+                got: cube.size(),
+            });
+        }
+        let haar = HaarCube::new(DIRECT_SIZE)?.forward_cube(&cube)?;
+        let mut one_bounce = cube.downsample()?;
+        while one_bounce.size() > ONE_BOUNCE_SIZE {
+            one_bounce = one_bounce.downsample()?;
+        }
+        let mut two_bounce = one_bounce.downsample()?;
+        while two_bounce.size() > TWO_BOUNCE_SIZE {
+            two_bounce = two_bounce.downsample()?;
+        }
+        let mut prefiltered = Vec::with_capacity(widths_deg.len());
+        for &w in widths_deg {
+            let sigma = w.to_radians();
+            let filtered = prefilter::prefilter(&cube, sigma)?;
+            let k = prefilter::kernel_integral(sigma)?;
+            // Normalized: a constant environment stays that constant at every width.
+            let scale = if sigma == 0.0 { 1.0 } else { 1.0 / k };
+            let texels = filtered
+                .texels()
+                .iter()
+                .map(|t| t.map(|c| (c as f64 * scale) as f32))
+                .collect();
+            prefiltered.push(CubeMap::new(filtered.size(), texels)?);
+        }
+        Ok(LightCoefficients {
+            cube,
+            haar,
+            one_bounce,
+            two_bounce,
+            widths_deg: widths_deg.to_vec(),
+            prefiltered,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn latlong(width: usize, height: usize, f: impl Fn(usize, usize) -> [f32; 3]) -> LatLongMap {
+        let texels = (0..width * height)
+            .map(|i| f(i % width, i / width))
+            .collect();
+        LatLongMap::new(width, height, texels, 1.0)
+            .expect("valid map")
+            .0
+    }
+
+    #[test]
+    fn a_constant_environment_is_constant_in_every_coefficient() {
+        let map = latlong(64, 32, |_, _| [0.5, 1.0, 2.0]);
+        let c = LightCoefficients::from_latlong(&map, 37.0, &[0.0, 7.0, 14.0, 21.0])
+            .expect("coefficients");
+        for cube in [&c.cube, &c.one_bounce, &c.two_bounce]
+            .into_iter()
+            .chain(c.prefiltered.iter())
+        {
+            for t in cube.texels() {
+                for (ch, want) in [0.5f32, 1.0, 2.0].into_iter().enumerate() {
+                    assert!((t[ch] - want).abs() <= 2e-3 * want, "{t:?}");
+                }
+            }
+        }
+        assert_eq!(c.one_bounce.size(), ONE_BOUNCE_SIZE);
+        assert_eq!(c.two_bounce.size(), TWO_BOUNCE_SIZE);
+        // Parseval: the Haar coefficients carry the integral of L^2 over the sphere.
+        for (ch, want) in [0.5f64, 1.0, 2.0].into_iter().enumerate() {
+            let energy: f64 = c.haar[ch].iter().map(|&x| (x as f64) * (x as f64)).sum();
+            let expect = want * want * 4.0 * std::f64::consts::PI;
+            assert!(
+                (energy - expect).abs() <= 1e-3 * expect,
+                "{energy} vs {expect}"
+            );
+        }
+    }
+
+    #[test]
+    fn coarse_light_keeps_the_integral_of_the_environment() {
+        // A sky brighter above the horizon with a bright spot: the downsampled cubes hold
+        // means over their texels, so the integral over the sphere is unchanged.
+        let map = latlong(128, 64, |x, y| {
+            let v = if y < 32 { 2.0 } else { 0.25 };
+            let spot = if (40..44).contains(&x) && (10..13).contains(&y) {
+                200.0
+            } else {
+                0.0
+            };
+            [v + spot, v, v + 0.5 * spot]
+        });
+        let c = LightCoefficients::from_latlong(&map, 0.0, &[]).expect("coefficients");
+        let full = c.cube.integral();
+        for coarse in [&c.one_bounce, &c.two_bounce] {
+            let i = coarse.integral();
+            for ch in 0..3 {
+                assert!(
+                    (i[ch] - full[ch]).abs() <= 1e-4 * full[ch],
+                    "{i:?} vs {full:?}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn the_rotation_turns_the_light() {
+        // Bright only around -Z (the map's centre column); turned +90 degrees about +Y it
+        // is bright around -X (docs/conventions.md).
+        let map = latlong(64, 32, |x, y| {
+            if (30..34).contains(&x) && (14..18).contains(&y) {
+                [10.0; 3]
+            } else {
+                [0.0; 3]
+            }
+        });
+        let c = LightCoefficients::from_latlong(&map, 90.0, &[]).expect("coefficients");
+        let minus_x = c.cube.lookup_nearest([-1.0, 0.0, 0.0])[0];
+        let minus_z = c.cube.lookup_nearest([0.0, 0.0, -1.0])[0];
+        assert!(
+            minus_x > 5.0 && minus_z < 1e-3,
+            "-X {minus_x}, -Z {minus_z}"
+        );
+    }
+
+    #[test]
+    fn bad_input_is_refused() {
+        let map = latlong(8, 4, |_, _| [1.0; 3]);
+        assert!(LightCoefficients::from_latlong(&map, f64::NAN, &[]).is_err());
+        assert!(LightCoefficients::from_latlong(&map, 0.0, &[-3.0]).is_err());
+        let small = CubeMap::constant(8, [1.0; 3]).expect("cube");
+        assert!(LightCoefficients::from_cube(small, &[]).is_err());
+    }
+}
