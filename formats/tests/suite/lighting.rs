@@ -262,7 +262,7 @@ fn every_face_has_the_opengl_orientation() {
         let grad_t = [0, 1, 2].map(|k| (dt[k] - c[k]) / (2.0 * eps));
         assert!(close3(grad_s, s_dir, 1e-5), "{}: s {grad_s:?}", face.name());
         assert!(close3(grad_t, t_dir, 1e-5), "{}: t {grad_t:?}", face.name());
-        // Seen from inside the cube every face is an unmirrored image: s x t points inwards.
+        // Seen from outside the cube every face is an unmirrored image: s x t points inwards.
         let cross = [
             s_dir[1] * t_dir[2] - s_dir[2] * t_dir[1],
             s_dir[2] * t_dir[0] - s_dir[0] * t_dir[2],
@@ -270,21 +270,30 @@ fn every_face_has_the_opengl_orientation() {
         ];
         assert!(close3(cross, centre.map(|x| -x), 0.0), "{}", face.name());
     }
-    // The top-left corner of +X is (1, 1, 1) / sqrt(3); the faces meet edge to edge: the right
-    // edge of +Z is the left edge of +X, the top edge of +Z the bottom edge of +Y.
+    // The top-left corner of +X is (1, 1, 1) / sqrt(3). The faces form the horizontal cross
+    // of docs/lighting.md: -X +Z +X -Z in a row (each right edge is the next face's left
+    // edge, and -Z wraps to -X), +Y above +Z and -Y below it, touching edges with the same
+    // parameter.
     let r3 = 1.0 / 3f64.sqrt();
     assert!(close3(
         face_st_to_direction(Face::PosX, 0.0, 0.0),
         [r3, r3, r3],
         1e-15
     ));
+    let row = [Face::NegX, Face::PosZ, Face::PosX, Face::NegZ];
     for k in 0..=10 {
-        let t = k as f64 / 10.0;
-        let a = face_st_to_direction(Face::PosZ, 1.0, t);
-        let b = face_st_to_direction(Face::PosX, 0.0, t);
+        let p = k as f64 / 10.0;
+        for w in 0..4 {
+            let (left, right) = (row[w], row[(w + 1) % 4]);
+            let a = face_st_to_direction(left, 1.0, p);
+            let b = face_st_to_direction(right, 0.0, p);
+            assert!(close3(a, b, 1e-15), "{left:?} | {right:?} at {p}");
+        }
+        let a = face_st_to_direction(Face::PosZ, p, 0.0);
+        let b = face_st_to_direction(Face::PosY, p, 1.0);
         assert!(close3(a, b, 1e-15));
-        let a = face_st_to_direction(Face::PosZ, t, 0.0);
-        let b = face_st_to_direction(Face::PosY, t, 1.0);
+        let a = face_st_to_direction(Face::PosZ, p, 1.0);
+        let b = face_st_to_direction(Face::NegY, p, 0.0);
         assert!(close3(a, b, 1e-15));
     }
 }
