@@ -91,3 +91,37 @@ pub fn pca_rows(rows: &[f32], n: usize, len: usize, k: usize) -> Compressed {
         rank,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Rows that vary along one direction about a mean far from zero: one component holds
+    /// them exactly, but only about the right mean (about any other point they span two
+    /// dimensions). A wrong mean, or weights taken about another point, fails.
+    #[test]
+    fn one_component_reconstructs_rank_one_rows_about_their_mean() {
+        let (n, len) = (50, 6);
+        let mean = [3.0f32, -2.0, 5.0, 1.0, 0.5, 4.0];
+        let dir = [0.5f32, 0.5, -0.5, 0.5, 0.0, 0.0];
+        let rows: Vec<f32> = (0..n)
+            .flat_map(|p| {
+                // Symmetric about 0, so the rows' mean is `mean` itself.
+                let a = (p as f32 - (n - 1) as f32 / 2.0) * 0.1;
+                (0..len).map(move |j| mean[j] + a * dir[j])
+            })
+            .collect();
+        let c = pca_rows(&rows, n, len, 1);
+        assert_eq!(c.rank, 1);
+        for (j, (&got, &want)) in c.mean.iter().zip(&mean).enumerate() {
+            assert!((got - want).abs() < 1e-4, "mean[{j}] {got} vs {want}");
+        }
+        for p in 0..n {
+            for j in 0..len {
+                let rebuilt = c.mean[j] + c.weights[p] * c.components[j];
+                let x = rows[p * len + j];
+                assert!((rebuilt - x).abs() < 1e-4, "row {p}[{j}]: {rebuilt} vs {x}");
+            }
+        }
+    }
+}
