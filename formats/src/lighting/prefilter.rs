@@ -39,8 +39,8 @@
 //!   for 7 degrees and 0.05 s each for 14 and 21 degrees on one core of a shared machine
 //!   (single-threaded; the result does not depend on any thread count).
 //!
-//! Measured on 6x64x64 inputs (the tests in `formats/tests/suite/lighting.rs` check these
-//! bounds with a margin), errors relative to the largest value:
+//! Measured on 6x64x64 inputs (the tests in `formats/tests/suite/lighting/prefilter.rs`
+//! check these bounds with a margin), errors relative to the largest value:
 //!
 //! | case | 7 deg | 14 deg | 21 deg |
 //! |---|---|---|---|
