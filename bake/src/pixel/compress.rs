@@ -111,6 +111,9 @@ mod tests {
                 (0..len).map(move |j| mean[j] + a * dir[j])
             })
             .collect();
+        // Asked for more components than the data has, only the one with variance is kept
+        // (the others are rounding noise, positive or negative).
+        assert_eq!(pca_rows(&rows, n, len, 4).rank, 1);
         let c = pca_rows(&rows, n, len, 1);
         assert_eq!(c.rank, 1);
         for (j, (&got, &want)) in c.mean.iter().zip(&mean).enumerate() {
