@@ -45,17 +45,30 @@
 //! * `eval.rs`: evaluation of the tables (coordinates of a direction pair, [`GridWeights`],
 //!   trilinear interpolation; shared by the baker and the runtime).
 //! * `error.rs`: [`BasisError`].
+//! * `hemigrid.rs`: [`HemiGrid`], the equal-area hemisphere grid of the shading basis, and
+//!   [`HemiWeights`], bilinear interpolation over it (wrapping in `phi`, blended towards a
+//!   stored pole row in the polar cap, clamped at the horizon).
+//! * `shading.rs`: the persisted Tucker shading basis [`ShadingBasis`] of the per-vertex mode
+//!   (residual lobe as a Tucker decomposition, specular split as reflectances), its validation
+//!   and evaluation.
 
 mod brdf_basis;
 mod error;
 mod eval;
 mod grid;
+mod hemigrid;
+mod shading;
 mod warp;
 
 pub use brdf_basis::BrdfBasis;
 pub use error::BasisError;
 pub use eval::{cos_phi_local, fast_acos, GridWeights};
 pub use grid::{half_diff_node, half_diff_pair, AngularGrid, GridKind, GridNode, GridSpec};
+pub use hemigrid::{HemiGrid, HemiWeights, MAX_HEMI_DIRS};
+pub use shading::{
+    mirror, ParamWeights, ShadingBasis, TuckerRanks, MAX_SHADING_PARAMS, MAX_SHADING_RANK,
+    MAX_SPLIT_WIDTHS, SHADING_SCHEMA_VERSION,
+};
 pub use warp::ParamWarp;
 
 /// Version of the [`BrdfBasis`] schema. Bump when the meaning or layout of a field changes.
