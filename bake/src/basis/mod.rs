@@ -8,12 +8,17 @@
 //!   tables and the report are in the `prt-bench` crate.
 //! - [`tucker`]: the 3-tensor `F(h, wo, wi)` and its Tucker decomposition with the specular
 //!   split.
+//! - [`shading`]: the persisted Tucker shading basis of the per-vertex mode
+//!   ([`prt_formats::basis::ShadingBasis`]) built from them.
 
+pub mod cells;
 pub mod error;
 pub mod grid;
 pub mod linalg;
 pub mod pca;
+pub mod pole;
 pub mod select;
+pub mod shading;
 pub mod tucker;
 
 pub use error::BasisError;

@@ -17,38 +17,10 @@ use crate::brdf::Family;
 use faer::Mat;
 use rayon::prelude::*;
 use serde::Serialize;
-use std::f64::consts::PI;
 
-/// Equal-area hemisphere grid: `n_theta` rings uniform in cos(theta), `n_phi` azimuths,
-/// directions at cell centers, each covering `2 pi / (n_theta n_phi)` steradians.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-pub struct HemiGrid {
-    pub n_theta: usize,
-    pub n_phi: usize,
-}
-
-impl HemiGrid {
-    pub fn len(&self) -> usize {
-        self.n_theta * self.n_phi
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
-    /// Unit direction of cell `n` (local frame, +Z normal).
-    pub fn dir(&self, n: usize) -> [f64; 3] {
-        let (j, k) = (n / self.n_phi, n % self.n_phi);
-        let z = 1.0 - (j as f64 + 0.5) / self.n_theta as f64;
-        let r = (1.0 - z * z).max(0.0).sqrt();
-        let ph = 2.0 * PI * (k as f64 + 0.5) / self.n_phi as f64;
-        [r * ph.cos(), r * ph.sin(), z]
-    }
-
-    pub fn solid_angle(&self) -> f64 {
-        2.0 * PI / self.len() as f64
-    }
-}
+/// The equal-area hemisphere grid of the tensor's direction modes; it lives in
+/// `prt_formats::basis` because the shading basis persists tables over it.
+pub use prt_formats::basis::HemiGrid;
 
 /// Gaussian widths of the specular split (thesis 5.3.1), degrees; 0 = a mirror spike.
 pub const SPLIT_WIDTHS_DEG: [f64; 4] = [0.0, 7.0, 14.0, 21.0];
@@ -66,21 +38,38 @@ pub struct BrdfTensor {
 }
 
 impl BrdfTensor {
+    /// The lobe sampled at the grid's nodes (both directions).
     pub fn new(spec: FamilySpec, params: Vec<f64>, dirs: HemiGrid) -> BrdfTensor {
+        let dv: Vec<[f64; 3]> = (0..dirs.len()).map(|n| dirs.dir(n)).collect();
+        BrdfTensor::from_rows(spec, params, dirs, |p, o, row| {
+            for (v, wi) in row.iter_mut().zip(&dv) {
+                *v = eval_pair(spec, p, dv[o], *wi);
+            }
+        })
+    }
+
+    /// A tensor whose raw (unscaled) values `F(p, o, .)` over the incident directions are
+    /// written by `row(p, o, out)`; scaled and normalized as [`BrdfTensor::new`]. Slabs are
+    /// computed in parallel, each value independently, so the result does not depend on the
+    /// thread count.
+    pub fn from_rows(
+        spec: FamilySpec,
+        params: Vec<f64>,
+        dirs: HemiGrid,
+        row: impl Fn(f64, usize, &mut [f64]) + Sync,
+    ) -> BrdfTensor {
         let nd = dirs.len();
-        let dv: Vec<[f64; 3]> = (0..nd).map(|n| dirs.dir(n)).collect();
-        let dir_scale: Vec<f64> = dv
-            .iter()
-            .map(|d| (d[2] * dirs.solid_angle()).sqrt())
+        let dir_scale: Vec<f64> = (0..nd)
+            .map(|n| (dirs.dir(n)[2] * dirs.solid_angle()).sqrt())
             .collect();
         let slabs: Vec<(Vec<f64>, f64)> = params
             .par_iter()
             .map(|&p| {
                 let mut s = vec![0.0; nd * nd];
-                for o in 0..nd {
-                    for i in 0..nd {
-                        s[o * nd + i] =
-                            eval_pair(spec, p, dv[o], dv[i]) * dir_scale[o] * dir_scale[i];
+                for (o, r) in s.chunks_exact_mut(nd).enumerate() {
+                    row(p, o, r);
+                    for (v, si) in r.iter_mut().zip(&dir_scale) {
+                        *v *= dir_scale[o] * si;
                     }
                 }
                 let norm = s.iter().map(|x| x * x).sum::<f64>().sqrt();
@@ -139,7 +128,7 @@ pub struct SpecularSplit {
 
 /// Gaussian profiles (scaled like the tensor) about the mirror direction of each `wo`:
 /// `[o][k][i]`. Width 0 is a unit spike at the grid direction nearest to the mirror direction.
-fn split_profiles(dirs: &HemiGrid, dir_scale: &[f64]) -> Vec<f64> {
+pub fn split_profiles(dirs: &HemiGrid, dir_scale: &[f64]) -> Vec<f64> {
     let nd = dirs.len();
     let nk = SPLIT_WIDTHS_DEG.len();
     let dv: Vec<[f64; 3]> = (0..nd).map(|n| dirs.dir(n)).collect();
@@ -244,23 +233,53 @@ fn nnls_small(gg: &[f64], gy: &[f64], k: usize) -> Vec<f64> {
     best
 }
 
+/// The Gram matrix `G G^T` (`nk x nk`) of `nk` profiles stored one after the other.
+pub fn profile_gram(g: &[f64], nk: usize) -> Vec<f64> {
+    let nd = g.len() / nk.max(1);
+    let mut gg = vec![0.0; nk * nk];
+    for p in 0..nk {
+        for q in 0..nk {
+            let (a, b) = (&g[p * nd..][..nd], &g[q * nd..][..nd]);
+            gg[p * nk + q] = a.iter().zip(b).map(|(x, y)| x * y).sum();
+        }
+    }
+    gg
+}
+
+/// Fits the `nk` profiles `g` (one after the other, Gram matrix `gram`) to the fibre `y` by
+/// nonnegative least squares, subtracts the fit from `y` and returns the amplitudes.
+pub fn split_fibre(y: &mut [f64], g: &[f64], gram: &[f64], nk: usize) -> Vec<f64> {
+    let nd = y.len();
+    let gy: Vec<f64> = (0..nk)
+        .map(|k| {
+            g[k * nd..][..nd]
+                .iter()
+                .zip(y.iter())
+                .map(|(a, b)| a * b)
+                .sum()
+        })
+        .collect();
+    let a = nnls_small(gram, &gy, nk);
+    for k in 0..nk {
+        for (v, p) in y.iter_mut().zip(&g[k * nd..][..nd]) {
+            *v -= a[k] * p;
+        }
+    }
+    a
+}
+
 /// Fits and removes the specular Gaussians from every (h, wo) fiber.
 pub fn specular_split(t: &BrdfTensor) -> SpecularSplit {
+    specular_split_with(t, &split_profiles(&t.dirs, &t.dir_scale))
+}
+
+/// [`specular_split`] with the profiles `g` (`[o][k][i]`, scaled like the tensor, one per
+/// width of [`SPLIT_WIDTHS_DEG`]) given.
+pub fn specular_split_with(t: &BrdfTensor, g: &[f64]) -> SpecularSplit {
     let (nh, nd, _) = t.dims();
     let nk = SPLIT_WIDTHS_DEG.len();
-    let g = split_profiles(&t.dirs, &t.dir_scale);
-    // Gram matrices per wo
     let grams: Vec<Vec<f64>> = (0..nd)
-        .map(|o| {
-            let mut gg = vec![0.0; nk * nk];
-            for p in 0..nk {
-                for q in 0..nk {
-                    let (a, b) = (&g[(o * nk + p) * nd..][..nd], &g[(o * nk + q) * nd..][..nd]);
-                    gg[p * nk + q] = a.iter().zip(b).map(|(x, y)| x * y).sum();
-                }
-            }
-            gg
-        })
+        .map(|o| profile_gram(&g[o * nk * nd..(o + 1) * nk * nd], nk))
         .collect();
     let results: Vec<(Vec<f64>, Vec<f64>)> = (0..nh)
         .into_par_iter()
@@ -269,23 +288,9 @@ pub fn specular_split(t: &BrdfTensor) -> SpecularSplit {
             let mut res = t.data[h * nd * nd..(h + 1) * nd * nd].to_vec();
             for o in 0..nd {
                 let y = &mut res[o * nd..(o + 1) * nd];
-                let gy: Vec<f64> = (0..nk)
-                    .map(|k| {
-                        g[(o * nk + k) * nd..][..nd]
-                            .iter()
-                            .zip(y.iter())
-                            .map(|(a, b)| a * b)
-                            .sum()
-                    })
-                    .collect();
-                let a = nnls_small(&grams[o], &gy, nk);
-                for k in 0..nk {
-                    amps[o * nk + k] = a[k];
-                    let prof = &g[(o * nk + k) * nd..][..nd];
-                    for i in 0..nd {
-                        y[i] -= a[k] * prof[i];
-                    }
-                }
+                let prof = &g[o * nk * nd..(o + 1) * nk * nd];
+                let a = split_fibre(y, prof, &grams[o], nk);
+                amps[o * nk..(o + 1) * nk].copy_from_slice(&a);
             }
             (amps, res)
         })
