@@ -7,3 +7,4 @@ mod brdf;
 mod camera;
 mod render_analytic;
 mod scene_loading;
+mod shading_basis;

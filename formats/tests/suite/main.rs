@@ -7,3 +7,4 @@ mod lighting;
 mod metadata;
 mod overrides;
 mod python_compat;
+mod shading_basis;
