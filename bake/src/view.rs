@@ -4,7 +4,7 @@
 //! black or meaningless without any error.
 
 use glam::Vec3;
-use prt_formats::view::CameraFrame;
+use prt_formats::view::{judge_eye, CameraFrame};
 
 use crate::accel::Accel;
 use crate::scene::{Camera, Scene};
@@ -46,50 +46,31 @@ pub enum ViewError {
     },
 }
 
-/// Refuses an eye enclosed by geometry: from inside a closed object, every direction meets a
-/// surface from behind (its interpolated normal points away from the eye). 26 directions (the
-/// cube's faces, edges and corners) are traced; the eye is inside when at least 22 of them hit
-/// a back side first. An eye in the open, or in a room whose walls face inwards, sees front
-/// sides; a thin sheet or an open mesh behind the eye cannot fool a majority of directions.
+/// Refuses an eye enclosed by geometry, by the rule baker and runtime share
+/// ([`judge_eye`]): the 26 [`EYE_TEST_DIRECTIONS`](prt_formats::view::EYE_TEST_DIRECTIONS) are
+/// traced from the eye, and the eye is inside when at least 22 of them meet a back side first
+/// (the interpolated normal points away from the eye). An eye in the open, or in a room whose
+/// walls face inwards, sees front sides; a thin sheet or an open mesh behind the eye cannot
+/// fool a majority of directions.
 pub fn check_eye_outside(scene: &Scene, accel: &Accel, eye: Vec3) -> Result<(), ViewError> {
-    let mut back_by_material = vec![0usize; scene.materials.len()];
-    let mut total = 0;
-    for dx in -1i32..=1 {
-        for dy in -1i32..=1 {
-            for dz in -1i32..=1 {
-                if (dx, dy, dz) == (0, 0, 0) {
-                    continue;
-                }
-                total += 1;
-                let dir = Vec3::new(dx as f32, dy as f32, dz as f32).normalize();
-                let Some(hit) = accel.intersect(eye, dir, 0.0, f32::INFINITY) else {
-                    continue;
-                };
-                let tri = scene.triangles[hit.triangle as usize];
-                let [na, nb, nc] = tri.map(|v| scene.normals[v as usize]);
-                let n = na * (1.0 - hit.bary.x - hit.bary.y) + nb * hit.bary.x + nc * hit.bary.y;
-                if n.dot(dir) > 0.0 {
-                    let m = scene.triangle_material[hit.triangle as usize] as usize;
-                    if let Some(count) = back_by_material.get_mut(m) {
-                        *count += 1;
-                    }
-                }
-            }
-        }
-    }
-    let back: usize = back_by_material.iter().sum();
-    if back * 26 >= 22 * total {
-        let worst = (0..back_by_material.len())
-            .max_by_key(|&m| (back_by_material[m], std::cmp::Reverse(m)))
-            .unwrap_or(0);
+    let verdict = judge_eye(scene.materials.len(), |d| {
+        let dir = Vec3::from_array(d);
+        let hit = accel.intersect(eye, dir, 0.0, f32::INFINITY)?;
+        let tri = scene.triangles[hit.triangle as usize];
+        let [na, nb, nc] = tri.map(|v| scene.normals[v as usize]);
+        let n = na * (1.0 - hit.bary.x - hit.bary.y) + nb * hit.bary.x + nc * hit.bary.y;
+        let material = scene.triangle_material[hit.triangle as usize] as usize;
+        Some((material, n.dot(dir) > 0.0))
+    });
+    if verdict.inside {
         return Err(ViewError::InsideGeometry {
             eye,
-            material: scene
-                .materials
-                .get(worst)
+            material: verdict
+                .material
+                .and_then(|m| scene.materials.get(m))
                 .map_or_else(|| "?".to_string(), |m| m.name.clone()),
-            back,
-            total,
+            back: verdict.back,
+            total: verdict.total,
         });
     }
     Ok(())

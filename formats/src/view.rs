@@ -202,6 +202,88 @@ impl fmt::Display for CameraSpec {
     }
 }
 
+/// The directions the eye-inside-geometry rule traces from the eye: the 26 neighbours of a cube's
+/// centre (its 6 faces, 12 edges and 8 corners), normalized, in the order of `dx`, `dy`, `dz`
+/// in {-1, 0, 1} (`dx` slowest, (0, 0, 0) skipped). Each component is exactly what `f32`
+/// normalization (`v * (1 / |v|)`) gives, so a tracer that builds them itself traces the same
+/// rays.
+pub const EYE_TEST_DIRECTIONS: [[f32; 3]; 26] = eye_test_directions();
+
+/// At least this many of the 26 [`EYE_TEST_DIRECTIONS`] must meet the back of a surface first
+/// for the eye to count as inside an object ([`judge_eye`]).
+pub const EYE_INSIDE_MIN_BACK: usize = 22;
+
+/// `1 / sqrt(3)` rounded to `f32`, which is also `1.0f32 / 3.0f32.sqrt()` (a unit test checks).
+const FRAC_1_SQRT_3: f32 = 0.577_350_26;
+
+const fn eye_test_directions() -> [[f32; 3]; 26] {
+    let mut out = [[0.0f32; 3]; 26];
+    let (mut k, mut i) = (0i32, 0usize);
+    while k < 27 {
+        let d = [k / 9 - 1, k / 3 % 3 - 1, k % 3 - 1];
+        let nonzero = (d[0] != 0) as usize + (d[1] != 0) as usize + (d[2] != 0) as usize;
+        if nonzero > 0 {
+            let s = [1.0, std::f32::consts::FRAC_1_SQRT_2, FRAC_1_SQRT_3][nonzero - 1];
+            out[i] = [d[0] as f32 * s, d[1] as f32 * s, d[2] as f32 * s];
+            i += 1;
+        }
+        k += 1;
+    }
+    out
+}
+
+/// What the [`EYE_TEST_DIRECTIONS`] traced from an eye met ([`judge_eye`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct EyeVerdict {
+    /// True when at least [`EYE_INSIDE_MIN_BACK`] of the directions met a back side first: the
+    /// eye is inside an object and the view should be refused.
+    pub inside: bool,
+    /// Directions whose first hit was a back side (of a material below the material count).
+    pub back: usize,
+    /// Directions traced (26).
+    pub total: usize,
+    /// The material most often seen from behind (ties to the lowest index), `None` when no
+    /// direction met a back side.
+    pub material: Option<usize>,
+    /// Back-side hits per material index.
+    pub back_by_material: Vec<usize>,
+}
+
+/// The eye-inside-geometry rule, shared by the baker (BVH) and the runtime (brute force) so
+/// both refuse the same views. From inside a closed object every direction meets a surface from
+/// behind (its interpolated normal points away from the eye); an eye in the open, or in a room
+/// whose walls face inwards, sees front sides, and a thin sheet or an open mesh behind the eye
+/// cannot fool a majority of directions.
+///
+/// `first_hit(direction)` traces one of the [`EYE_TEST_DIRECTIONS`] from the eye and returns
+/// the material index of the first surface met and whether it was seen from behind, or `None`
+/// when the ray escapes. Back hits on a material index `>= material_count` are not counted.
+pub fn judge_eye(
+    material_count: usize,
+    mut first_hit: impl FnMut([f32; 3]) -> Option<(usize, bool)>,
+) -> EyeVerdict {
+    let mut back_by_material = vec![0usize; material_count];
+    for dir in EYE_TEST_DIRECTIONS {
+        if let Some((material, true)) = first_hit(dir) {
+            if let Some(count) = back_by_material.get_mut(material) {
+                *count += 1;
+            }
+        }
+    }
+    let back: usize = back_by_material.iter().sum();
+    let total = EYE_TEST_DIRECTIONS.len();
+    let material = (0..material_count)
+        .filter(|&m| back_by_material[m] > 0)
+        .max_by_key(|&m| (back_by_material[m], std::cmp::Reverse(m)));
+    EyeVerdict {
+        inside: back >= EYE_INSIDE_MIN_BACK,
+        back,
+        total,
+        material,
+        back_by_material,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -278,5 +360,67 @@ mod tests {
                 "{text:?}: the message quotes it: {msg}"
             );
         }
+    }
+
+    #[test]
+    fn eye_test_directions_are_the_normalized_cube_neighbours() {
+        let mut i = 0;
+        for dx in -1i32..=1 {
+            for dy in -1i32..=1 {
+                for dz in -1i32..=1 {
+                    if (dx, dy, dz) == (0, 0, 0) {
+                        continue;
+                    }
+                    let v = [dx as f32, dy as f32, dz as f32];
+                    // What f32 normalization computes: v * (1 / sqrt(v . v)).
+                    let inv = 1.0 / dot(v, v).sqrt();
+                    let want = v.map(|c| c * inv);
+                    assert_eq!(EYE_TEST_DIRECTIONS[i], want, "direction {i}");
+                    i += 1;
+                }
+            }
+        }
+        assert_eq!(i, 26);
+    }
+
+    #[test]
+    fn the_eye_rule_counts_back_sides_per_material() {
+        // 22 back hits: inside; material 2 is seen from behind 12 times, 1 and 3 five times.
+        let mut n = 0;
+        let v = judge_eye(4, |_| {
+            n += 1;
+            match n {
+                1..=12 => Some((2, true)),
+                13..=17 => Some((3, true)),
+                18..=22 => Some((1, true)),
+                23 => Some((0, false)),
+                24 => Some((7, true)), // no such material: not counted
+                _ => None,
+            }
+        });
+        assert_eq!(n, 26);
+        assert!(v.inside);
+        assert_eq!((v.back, v.total, v.material), (22, 26, Some(2)));
+        assert_eq!(v.back_by_material, vec![0, 5, 12, 5]);
+        // 21 back hits (11 of material 1, 10 of material 2): outside.
+        let mut n = 0;
+        let v = judge_eye(3, |_| {
+            n += 1;
+            (n <= 21).then_some((2 - n % 2, true))
+        });
+        assert!(!v.inside);
+        assert_eq!((v.back, v.material), (21, Some(1)));
+        // 22 back hits, 11 each of materials 1 and 2: inside, the tie goes to the lowest index.
+        let mut n = 0;
+        let v = judge_eye(3, |_| {
+            n += 1;
+            (n <= 22).then_some((2 - n % 2, true))
+        });
+        assert!(v.inside);
+        assert_eq!((v.back, v.material), (22, Some(1)));
+        // Nothing behind: no material.
+        let v = judge_eye(3, |_| Some((0, false)));
+        assert!(!v.inside);
+        assert_eq!((v.back, v.material), (0, None));
     }
 }
