@@ -8,11 +8,13 @@
 //! are contracted once per frame and each pixel costs K multiply-adds per channel.
 //!
 //! For the coming per-vertex mode (docs/vertex.md): [`light`] computes an environment's light
-//! coefficients (cube map, Haar, coarse cubes, prefiltered cubes).
+//! coefficients (cube map, Haar, coarse cubes, prefiltered cubes); [`raster`] renders the
+//! visibility buffer (triangle, perspective-correct barycentrics, distance per pixel centre).
 
 #![warn(missing_docs)]
 
 pub mod light;
+pub mod raster;
 
 use std::path::Path;
 use std::time::Instant;

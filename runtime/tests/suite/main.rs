@@ -3,6 +3,7 @@
 
 mod edits;
 mod fuzzed;
+mod raster;
 mod relight;
 mod synthetic;
 mod validation;
