@@ -51,7 +51,12 @@ struct Args {
     #[arg(long, value_name = "FILE")]
     env: Option<PathBuf>,
     /// Multiplier of `--env`'s texels.
-    #[arg(long, default_value_t = 1.0, requires = "env", allow_hyphen_values = true)]
+    #[arg(
+        long,
+        default_value_t = 1.0,
+        requires = "env",
+        allow_hyphen_values = true
+    )]
     env_intensity: f32,
     /// Turn the environment map about +Y by this many degrees (right-hand rule: +90 takes what
     /// was seen towards -Z to -X), on top of the config's `rotation`.
