@@ -17,7 +17,7 @@ use glam::{Vec2, Vec3};
 use prt_formats::latlong;
 use std::f32::consts::PI;
 
-use super::luminance;
+use super::color::luminance;
 use crate::sampling::Distribution1D;
 
 /// Bilinearly interpolated radiance of a lat-long map (`width x height`, row-major, top row

@@ -5,7 +5,10 @@
 //! punctual light, one environment sample), so no selection probability between kinds is
 //! needed and the densities used for multiple importance sampling are simple.
 
+mod color;
 mod environment;
+
+pub use color::luminance;
 
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -15,12 +18,6 @@ use prt_formats::lighting::cubemap::rotation_y;
 
 use crate::sampling::{uniform_triangle, Distribution1D};
 use crate::scene::{Environment, PunctualLight, Scene};
-
-/// Relative luminance of linear sRGB primaries.
-#[inline]
-pub fn luminance(c: Vec3) -> f32 {
-    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
-}
 
 /// A sample of incident light at a point, for next-event estimation.
 #[derive(Clone, Copy, Debug)]

@@ -404,7 +404,7 @@ fn measure(family: Family, params: &[f64]) -> Vec<Measured> {
         let inc = incident(b, env_rot);
         for &p in params {
             for &deg in &VIEW_DEG {
-                let t = (deg as f64).to_radians();
+                let t = deg.to_radians();
                 let wo = [t.sin(), 0.0, t.cos()];
                 let truth = albedo::hemisphere(quad_width(family, p), wo[2], 768, |o, i| {
                     true_lobe(family, p, o.to_array(), i.to_array()) * env.radiance(i.to_array())

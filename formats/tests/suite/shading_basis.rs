@@ -354,7 +354,7 @@ fn parameters_interpolate_in_the_warped_parameter_and_clamp() {
     let b = tiny();
     let (p0, p1) = (0.2f32, 0.8f32);
     let p = 0.4f32;
-    let t = ((p.ln() - p0.ln()) / (p1.ln() - p0.ln())) as f32;
+    let t = (p.ln() - p0.ln()) / (p1.ln() - p0.ln());
     let mut row = [0.0f32; 2];
     assert!(!b.u_h_row(p, &mut row));
     let want: Vec<f32> = (0..2)
