@@ -3,7 +3,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{AngularGrid, BasisError, GridKind, GridSpec, ParamWarp, BASIS_SCHEMA_VERSION};
+use super::{
+    AngularGrid, BasisError, GridKind, GridSpec, ParamWarp, ParamWeights, BASIS_SCHEMA_VERSION,
+};
 
 /// A BRDF family's basis, as carried by the bake file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -116,31 +118,10 @@ impl BrdfBasis {
     /// Allocation-free [`BrdfBasis::coefficients`]; `out` must hold `num_bases` values.
     pub fn coefficients_into(&self, param: f32, out: &mut [f32]) -> bool {
         let nb = self.num_bases;
-        let ps = &self.param_samples;
-        let (lo, hi) = (ps[0], ps[ps.len() - 1]);
-        let clamped = !(param >= lo && param <= hi);
-        let p = if param.is_nan() {
-            lo
-        } else {
-            param.clamp(lo, hi)
-        };
-        if ps.len() == 1 {
-            out[..nb].copy_from_slice(&self.coefficients[..nb]);
-            return clamped;
-        }
-        // first sample index j with ps[j] > p, so ps[j0] <= p < ps[j0 + 1]
-        let j = ps.partition_point(|&x| x <= p);
-        let j0 = j.saturating_sub(1).min(ps.len() - 2);
-        let u0 = self.param_warp.apply_f32(ps[j0]);
-        let u1 = self.param_warp.apply_f32(ps[j0 + 1]);
-        let u = self.param_warp.apply_f32(p);
-        let t = if u1 > u0 {
-            ((u - u0) / (u1 - u0)).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
+        let (ParamWeights { j0, j1, t }, clamped) =
+            self.param_warp.weights(&self.param_samples, param);
         let a = &self.coefficients[j0 * nb..(j0 + 1) * nb];
-        let b = &self.coefficients[(j0 + 1) * nb..(j0 + 2) * nb];
+        let b = &self.coefficients[j1 * nb..(j1 + 1) * nb];
         for k in 0..nb {
             out[k] = a[k] + t * (b[k] - a[k]);
         }

@@ -66,10 +66,10 @@ pub use eval::{cos_phi_local, fast_acos, GridWeights};
 pub use grid::{half_diff_node, half_diff_pair, AngularGrid, GridKind, GridNode, GridSpec};
 pub use hemigrid::{HemiGrid, HemiWeights, MAX_HEMI_DIRS};
 pub use shading::{
-    mirror, ParamWeights, ShadingBasis, TuckerRanks, MAX_SHADING_PARAMS, MAX_SHADING_RANK,
-    MAX_SPLIT_WIDTHS, SHADING_SCHEMA_VERSION,
+    mirror, ShadingBasis, TuckerRanks, MAX_SHADING_PARAMS, MAX_SHADING_RANK, MAX_SPLIT_WIDTHS,
+    SHADING_SCHEMA_VERSION,
 };
-pub use warp::ParamWarp;
+pub use warp::{ParamWarp, ParamWeights};
 
 /// Version of the [`BrdfBasis`] schema. Bump when the meaning or layout of a field changes.
 /// Version 2 added [`BrdfBasis::grid_kind`] (the half/difference grid); version 1 files are

@@ -36,7 +36,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{BasisError, HemiGrid, HemiWeights, ParamWarp};
+use super::{BasisError, HemiGrid, HemiWeights, ParamWarp, ParamWeights};
 use crate::family::Family;
 
 /// Version of the [`ShadingBasis`] schema. Bump when the meaning or layout of a field changes.
@@ -118,17 +118,6 @@ pub struct ShadingBasis {
     pub reflectances: Vec<f32>,
     /// Reflectances at the pole, `[n_params][n_widths]`, nonnegative.
     pub reflectances_pole: Vec<f32>,
-}
-
-/// Linear interpolation weights over the parameter samples: `(1 - t) row[j0] + t row[j1]`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ParamWeights {
-    /// Lower sample.
-    pub j0: usize,
-    /// Upper sample (`j0` when there is one sample).
-    pub j1: usize,
-    /// Fraction of the way from `j0` to `j1` in the warped parameter, in `[0, 1]`.
-    pub t: f32,
 }
 
 /// The mirror direction `r = (-wo.x, -wo.y, wo.z)` of `wo` about the normal (local frame).
@@ -305,34 +294,7 @@ impl ShadingBasis {
     /// true when `p` was outside the sampled range (or NaN) and was clamped to it.
     #[inline]
     pub fn param_weights(&self, p: f32) -> (ParamWeights, bool) {
-        let ps = &self.param_samples;
-        let (lo, hi) = (ps[0], ps[ps.len() - 1]);
-        let clamped = !(p >= lo && p <= hi);
-        let p = if p.is_nan() { lo } else { p.clamp(lo, hi) };
-        if ps.len() == 1 {
-            return (
-                ParamWeights {
-                    j0: 0,
-                    j1: 0,
-                    t: 0.0,
-                },
-                clamped,
-            );
-        }
-        // ps[j0] <= p < ps[j0 + 1], the last interval for p = hi
-        let j0 = ps
-            .partition_point(|&x| x <= p)
-            .saturating_sub(1)
-            .min(ps.len() - 2);
-        let u0 = self.param_warp.apply_f32(ps[j0]);
-        let u1 = self.param_warp.apply_f32(ps[j0 + 1]);
-        let u = self.param_warp.apply_f32(p);
-        let t = if u1 > u0 {
-            ((u - u0) / (u1 - u0)).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        (ParamWeights { j0, j1: j0 + 1, t }, clamped)
+        self.param_warp.weights(&self.param_samples, p)
     }
 
     /// Interpolation weights of a local direction over the grid ([`HemiGrid::weights`]).

@@ -44,3 +44,50 @@ impl ParamWarp {
         }
     }
 }
+
+/// Linear interpolation weights over the parameter samples: `(1 - t) row[j0] + t row[j1]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ParamWeights {
+    /// Lower sample.
+    pub j0: usize,
+    /// Upper sample (`j0` when there is one sample).
+    pub j1: usize,
+    /// Fraction of the way from `j0` to `j1` in the warped parameter, in `[0, 1]`.
+    pub t: f32,
+}
+
+impl ParamWarp {
+    /// The interpolation weights of parameter `p` over the increasing, non-empty `samples`,
+    /// linear in the warped parameter (the one rule of both persisted bases); the flag is true
+    /// when `p` was outside the sampled range (or NaN) and was clamped to it.
+    #[inline]
+    pub fn weights(self, samples: &[f32], p: f32) -> (ParamWeights, bool) {
+        let (lo, hi) = (samples[0], samples[samples.len() - 1]);
+        let clamped = !(p >= lo && p <= hi);
+        let p = if p.is_nan() { lo } else { p.clamp(lo, hi) };
+        if samples.len() == 1 {
+            return (
+                ParamWeights {
+                    j0: 0,
+                    j1: 0,
+                    t: 0.0,
+                },
+                clamped,
+            );
+        }
+        // samples[j0] <= p < samples[j0 + 1], the last interval for p = hi
+        let j0 = samples
+            .partition_point(|&x| x <= p)
+            .saturating_sub(1)
+            .min(samples.len() - 2);
+        let u0 = self.apply_f32(samples[j0]);
+        let u1 = self.apply_f32(samples[j0 + 1]);
+        let u = self.apply_f32(p);
+        let t = if u1 > u0 {
+            ((u - u0) / (u1 - u0)).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        (ParamWeights { j0, j1: j0 + 1, t }, clamped)
+    }
+}
