@@ -11,6 +11,8 @@
 //! * [`overrides`]: `--set MATERIAL.PARAM=VALUE` parsing.
 //! * [`basis`]: the persisted BRDF basis of editable materials and its evaluation.
 //! * [`pixel`]: the per-pixel bake schema (metadata, slots, relighting weights).
+//! * [`texture`]: the bilinear texture lookup both the baker and the runtime use.
+//! * [`vertex`]: the per-vertex bake schema (metadata, tensor names, the vertex frame).
 //! * [`view`]: the `--camera eye=.. target=.. fov=..` syntax and the camera frame it gives.
 
 #![warn(missing_docs)]
@@ -24,6 +26,8 @@ pub mod latlong;
 pub mod lighting;
 pub mod overrides;
 pub mod pixel;
+pub mod texture;
+pub mod vertex;
 pub mod view;
 
 pub use container::{

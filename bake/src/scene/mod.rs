@@ -32,27 +32,15 @@ pub struct Texture {
 }
 
 impl Texture {
-    /// Bilinear lookup with repeat wrapping.
+    /// Bilinear lookup with repeat wrapping ([`prt_formats::texture::sample_bilinear`], the
+    /// lookup the per-vertex runtime uses too).
     pub fn sample(&self, uv: Vec2) -> Vec3 {
-        let w = self.width as usize;
-        let h = self.height as usize;
-        if w == 0 || h == 0 || !uv.is_finite() {
-            return Vec3::ONE;
-        }
-        let x = uv.x * self.width as f32 - 0.5;
-        let y = uv.y * self.height as f32 - 0.5;
-        let x0 = x.floor();
-        let y0 = y.floor();
-        let fx = x - x0;
-        let fy = y - y0;
-        let wrap = |v: f32, n: usize| (v as i64).rem_euclid(n as i64) as usize;
-        let (xa, xb) = (wrap(x0, w), wrap(x0 + 1.0, w));
-        let (ya, yb) = (wrap(y0, h), wrap(y0 + 1.0, h));
-        let t = |xx: usize, yy: usize| self.texels[yy * w + xx];
-        t(xa, ya) * (1.0 - fx) * (1.0 - fy)
-            + t(xb, ya) * fx * (1.0 - fy)
-            + t(xa, yb) * (1.0 - fx) * fy
-            + t(xb, yb) * fx * fy
+        Vec3::from_array(prt_formats::texture::sample_bilinear_by(
+            self.width as usize,
+            self.height as usize,
+            uv.to_array(),
+            |i| self.texels[i].to_array(),
+        ))
     }
 }
 
