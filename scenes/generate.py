@@ -807,9 +807,79 @@ kd = [0.8, 0.4, 0.18]
 """)
 
 
+def vitrine(bunny_js):
+    """The per-vertex mode's test scene, small enough to bake in seconds: a glossy sphere and a
+    diffuse bunny (its native 1 839 vertices) on a floor, lit by a lat-long environment map.
+    The regression tests bake it and compare relit images with the reference tracer for
+    several environments, rotations, cameras and materials."""
+    folder = os.path.join(HERE, "vitrine")
+    os.makedirs(folder, exist_ok=True)
+    g = Gltf()
+    floor_mat = g.material("floor", (0.6, 0.6, 0.6))
+    sphere_mat = g.material("sphere", (0.1, 0.1, 0.1), metallic=0.0, roughness=0.3162)
+    bunny_mat = g.material("bunny", (0.8, 0.4, 0.18))
+
+    # Floor: 1.2 m square, 24 x 24 grid (5 cm spacing).
+    F, nf = 0.6, 24
+    floor = MeshData()
+    grid_quad(floor, (-F, 0, F), (2 * F, 0, 0), (0, 0, -2 * F), nf, nf, (0, 1, 0))
+    g.node("floor", mesh=g.mesh("floor", [(floor, floor_mat, True)]))
+
+    # Sphere: icosphere level 3 (642 vertices), radius 0.12 m, exact normals, resting on the
+    # floor 1 mm deep.
+    verts, indices = icosphere(3)
+    r = 0.12
+    sphere = MeshData()
+    for v in verts:
+        sphere.vertex(mul(v, r), v)
+    sphere.indices = indices
+    g.node("sphere", mesh=g.mesh("sphere", [(sphere, sphere_mat, True)]),
+           translation=[-0.17, r - 0.001, 0.0])
+
+    positions, indices = load_bunny(bunny_js)
+    positions = [mul(p, 0.022) for p in positions]
+    bunny = MeshData()
+    bunny.positions = positions
+    bunny.normals = smooth_normals(positions, indices)
+    bunny.indices = indices
+    lift = -min(p[1] for p in positions) - 0.001
+    g.node("bunny", mesh=g.mesh("bunny", [(bunny, bunny_mat, True)]),
+           translation=[0.15, lift, 0.02], rotation=y_rotation_quaternion(-30.0))
+
+    g.camera("camera", (0.0, 0.35, 0.85), (0.0, 0.1, 0.0), 40.0)
+    g.write_gltf(folder, "vitrine")
+    write_text(os.path.join(folder, "bake.toml"), """\
+# Vitrine: the per-vertex mode's test scene (scenes/generate.py): a glossy GGX sphere and a
+# diffuse bunny on a floor under the sky map; about 3K vertices, so it bakes in seconds.
+scene = "vitrine.gltf"
+mode = "vertex"
+width = 128
+height = 128
+spp = 64
+reflections = 2
+seed = 0
+
+[environment]
+map = "../envmaps/sky.exr"
+intensity = 0.25
+
+[materials.sphere]
+editable = true
+family = "ggx"
+kd = [0.1, 0.1, 0.1]
+ks = 0.6
+alpha = 0.1
+
+[materials.bunny]
+editable = true
+family = "diffuse"
+kd = [0.8, 0.4, 0.18]
+""")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("scenes", nargs="*", default=["cornell", "ring", "furnace", "gallery"])
+    ap.add_argument("scenes", nargs="*", default=["cornell", "ring", "furnace", "gallery", "vitrine"])
     ap.add_argument("--bunny", help="index.js of the npm package `bunny` (default: reuse the "
                                     "bunny committed in scenes/cornell/cornell.gltf; used by "
                                     "cornell and gallery)")
@@ -823,8 +893,10 @@ def main():
             furnace()
         elif name == "gallery":
             gallery(args.bunny)
+        elif name == "vitrine":
+            vitrine(args.bunny)
         else:
-            sys.exit("unknown scene %r (cornell, ring, furnace, gallery)" % name)
+            sys.exit("unknown scene %r (cornell, ring, furnace, gallery, vitrine)" % name)
         print("wrote scenes/%s" % name)
 
 
