@@ -204,6 +204,81 @@ pub fn relative_l2(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
     prt_bake::metrics::relative_l2(a, b)
 }
 
+/// One view of a scene for the per-vertex mode's comparisons: an environment map (file and
+/// intensity) turned about +Y, a camera, material edits, an image size.
+#[derive(Clone, Debug)]
+pub struct ViewSetting {
+    /// A name for messages.
+    pub name: &'static str,
+    /// Lat-long map (path relative to the workspace root) and its intensity.
+    pub env: (&'static str, f32),
+    /// Rotation about +Y, degrees.
+    pub rotation_deg: f32,
+    /// `--camera` syntax.
+    pub camera: &'static str,
+    /// `--set` edits.
+    pub edits: Vec<&'static str>,
+    /// Image size.
+    pub width: u32,
+    /// Image size.
+    pub height: u32,
+}
+
+/// The workspace root (the tests crate's parent folder).
+pub fn workspace_root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("tests crate has a parent")
+        .to_path_buf()
+}
+
+/// `scene` as `setting` changes it for the reference tracer: its environment, rotation, camera
+/// and true BRDFs.
+pub fn scene_for_setting(scene: &Scene, setting: &ViewSetting) -> Scene {
+    let mut scene = scene.clone();
+    let (file, intensity) = setting.env;
+    let (env, _) = prt_bake::scene::envmap::load_latlong(&workspace_root().join(file), intensity)
+        .expect("environment map");
+    scene.environment = env;
+    scene.environment_rotation = setting.rotation_deg;
+    let frame = setting
+        .camera
+        .parse::<prt_formats::view::CameraSpec>()
+        .expect("camera spec")
+        .frame()
+        .expect("camera frame");
+    scene.camera = prt_bake::view::camera_from_frame(&frame);
+    for e in &setting.edits {
+        let o = prt_formats::parse_override(e).expect("edit syntax");
+        prt_bake::run::apply_override(&mut scene, &o).expect("edit applies");
+    }
+    scene
+}
+
+/// The reference tracer's image of `setting` (true BRDFs, `reflections` reflections).
+pub fn reference_image(
+    scene: &Scene,
+    setting: &ViewSetting,
+    reflections: usize,
+    spp: u32,
+    seed: u64,
+) -> Vec<[f32; 3]> {
+    let scene = scene_for_setting(scene, setting);
+    prt_bake::reference::render_true(
+        &scene,
+        reflections,
+        setting.width,
+        setting.height,
+        spp,
+        seed,
+        None,
+    )
+    .pixels
+    .into_iter()
+    .map(|p| p.to_array())
+    .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::relative_l2;
