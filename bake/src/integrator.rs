@@ -150,6 +150,13 @@ impl<'a> Integrator<'a> {
         }
     }
 
+    /// The ray-origin offset along the normal, scaled to the scene (1e-4 of its extent): the
+    /// per-vertex baker starts its rays with the same offset.
+    #[inline]
+    pub fn eps(&self) -> f32 {
+        self.eps
+    }
+
     /// Primary ray direction through film position (x, y) in pixels (y down).
     #[inline]
     pub fn camera_ray(&self, x: f32, y: f32) -> (Vec3, Vec3) {

@@ -4,6 +4,7 @@
 
 use std::time::Instant;
 
+use prt_formats::basis::BrdfBasis;
 use prt_formats::pixel::{
     BakeStats, BasisMeta, CameraMeta, GroupMeta, PixelBakeMeta, Precision, PIXEL_SCHEMA_VERSION,
 };
@@ -69,6 +70,20 @@ pub struct BakeTimings {
     pub bake_seconds: f64,
     /// Rays traced per second of tracing.
     pub rays_per_second: f64,
+}
+
+/// The bases as a bake file stores them: metadata without the tables, and the tables (the
+/// tensors `basis.<i>.tables`, [`super::write::add_basis_tables`]). The per-vertex bake
+/// stores its PCA bases the same way.
+pub(crate) fn persisted_bases(bases: &[BrdfBasis]) -> (Vec<BasisMeta>, Vec<Vec<f32>>) {
+    let mut metas = Vec::with_capacity(bases.len());
+    let mut tables = Vec::with_capacity(bases.len());
+    for b in bases {
+        let mut meta = b.clone();
+        tables.push(std::mem::take(&mut meta.tables));
+        metas.push(BasisMeta { basis: meta });
+    }
+    (metas, tables)
 }
 
 /// Builds the ray-query structure and lights for `scene` and runs the bake ([`bake_with`]).
@@ -202,13 +217,7 @@ pub fn bake_with(
         });
     }
 
-    let mut bases_meta = Vec::new();
-    let mut basis_tables = Vec::new();
-    for b in &layout.bases {
-        let mut meta = b.clone();
-        basis_tables.push(std::mem::take(&mut meta.tables));
-        bases_meta.push(BasisMeta { basis: meta });
-    }
+    let (bases_meta, basis_tables) = persisted_bases(&layout.bases);
     let cam = &scene.camera;
     let stats = BakeStats {
         rays,

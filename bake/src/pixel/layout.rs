@@ -69,90 +69,119 @@ impl SlotLayout {
     }
 }
 
+/// The slots of every material, before the tensors' channel count is chosen.
+struct MaterialSlots {
+    materials: Vec<MaterialMeta>,
+    basis_families: Vec<(Family, usize)>,
+    total_slots: usize,
+    reasons: Vec<String>,
+}
+
+/// Whether a base-colour texture colours a slot (then tensors must be RGB).
+fn textured_slots(materials: &[MaterialMeta]) -> bool {
+    materials.iter().any(|m| m.textured && !m.slots.is_empty())
+}
+
+/// Slots per material (see [`SlotLayout::new`]) and why each material got them.
+fn material_slots(scene: &Scene, counts: &[(Family, usize)]) -> Result<MaterialSlots, PixelError> {
+    let mut materials = Vec::with_capacity(scene.materials.len());
+    let mut used_bases: Vec<(Family, usize)> = Vec::new();
+    let mut reasons = Vec::new();
+    let mut offset = 0u32;
+    for m in &scene.materials {
+        let b = &m.brdf;
+        let textured = m.base_color_texture.is_some();
+        let mut basis_index = None;
+        let (slots, reason) = if m.editable && b.family != Family::Diffuse {
+            let Some(&(family, num_bases)) = counts.iter().find(|x| x.0 == b.family) else {
+                return Err(PixelError::MissingBasis {
+                    material: m.name.clone(),
+                    family: b.family,
+                });
+            };
+            let idx = match used_bases.iter().position(|x| x.0 == family) {
+                Some(i) => i,
+                None => {
+                    used_bases.push((family, num_bases));
+                    used_bases.len() - 1
+                }
+            };
+            basis_index = Some(idx as u32);
+            let mut s = Vec::new();
+            if textured {
+                s.push(SlotKind::Kd);
+            }
+            s.extend((0..num_bases as u32).map(SlotKind::Basis));
+            let why = format!(
+                "editable {}: {} basis BRDFs{}",
+                b.family.name(),
+                num_bases,
+                if textured {
+                    " + a textured Kd slot"
+                } else {
+                    ""
+                }
+            );
+            (s, why)
+        } else if m.editable {
+            (
+                vec![SlotKind::Kd],
+                "editable diffuse: 1 slot (Kd)".to_string(),
+            )
+        } else {
+            let mut s = Vec::new();
+            if b.kd != Vec3::ZERO {
+                s.push(SlotKind::Kd);
+            }
+            if b.family != Family::Diffuse && b.ks != Vec3::ZERO {
+                s.push(SlotKind::Lobe);
+            }
+            let why = match s.len() {
+                0 => "fixed, black: no slot (reflects nothing)".to_string(),
+                1 => "fixed: 1 slot".to_string(),
+                _ => "fixed glossy: 2 slots (Kd, lobe)".to_string(),
+            };
+            (s, why)
+        };
+        if slots.len() > MAX_SLOTS {
+            return Err(PixelError::TooManySlots {
+                material: m.name.clone(),
+                slots: slots.len(),
+                max: MAX_SLOTS,
+            });
+        }
+        reasons.push(format!("{}: {}", m.name, reason));
+        materials.push(MaterialMeta {
+            name: m.name.clone(),
+            editable: m.editable,
+            family: b.family,
+            kd: b.kd.to_array(),
+            ks: b.ks.to_array(),
+            param: b.param,
+            textured,
+            slot_offset: offset,
+            basis: basis_index,
+            slots,
+        });
+        offset += materials.last().map_or(0, |m| m.slots.len() as u32);
+    }
+    Ok(MaterialSlots {
+        materials,
+        basis_families: used_bases,
+        total_slots: offset as usize,
+        reasons,
+    })
+}
+
 impl SlotPlan {
     /// As [`SlotLayout::new`], from the number of basis BRDFs each family will get.
     pub fn new(scene: &Scene, counts: &[(Family, usize)]) -> Result<SlotPlan, PixelError> {
-        let mut materials = Vec::with_capacity(scene.materials.len());
-        let mut used_bases: Vec<(Family, usize)> = Vec::new();
-        let mut reasons = Vec::new();
-        let mut offset = 0u32;
-        for m in &scene.materials {
-            let b = &m.brdf;
-            let textured = m.base_color_texture.is_some();
-            let mut basis_index = None;
-            let (slots, reason) = if m.editable && b.family != Family::Diffuse {
-                let Some(&(family, num_bases)) = counts.iter().find(|x| x.0 == b.family) else {
-                    return Err(PixelError::MissingBasis {
-                        material: m.name.clone(),
-                        family: b.family,
-                    });
-                };
-                let idx = match used_bases.iter().position(|x| x.0 == family) {
-                    Some(i) => i,
-                    None => {
-                        used_bases.push((family, num_bases));
-                        used_bases.len() - 1
-                    }
-                };
-                basis_index = Some(idx as u32);
-                let mut s = Vec::new();
-                if textured {
-                    s.push(SlotKind::Kd);
-                }
-                s.extend((0..num_bases as u32).map(SlotKind::Basis));
-                let why = format!(
-                    "editable {}: {} basis BRDFs{}",
-                    b.family.name(),
-                    num_bases,
-                    if textured {
-                        " + a textured Kd slot"
-                    } else {
-                        ""
-                    }
-                );
-                (s, why)
-            } else if m.editable {
-                (
-                    vec![SlotKind::Kd],
-                    "editable diffuse: 1 slot (Kd)".to_string(),
-                )
-            } else {
-                let mut s = Vec::new();
-                if b.kd != Vec3::ZERO {
-                    s.push(SlotKind::Kd);
-                }
-                if b.family != Family::Diffuse && b.ks != Vec3::ZERO {
-                    s.push(SlotKind::Lobe);
-                }
-                let why = match s.len() {
-                    0 => "fixed, black: no slot (reflects nothing)".to_string(),
-                    1 => "fixed: 1 slot".to_string(),
-                    _ => "fixed glossy: 2 slots (Kd, lobe)".to_string(),
-                };
-                (s, why)
-            };
-            if slots.len() > MAX_SLOTS {
-                return Err(PixelError::TooManySlots {
-                    material: m.name.clone(),
-                    slots: slots.len(),
-                    max: MAX_SLOTS,
-                });
-            }
-            reasons.push(format!("{}: {}", m.name, reason));
-            materials.push(MaterialMeta {
-                name: m.name.clone(),
-                editable: m.editable,
-                family: b.family,
-                kd: b.kd.to_array(),
-                ks: b.ks.to_array(),
-                param: b.param,
-                textured,
-                slot_offset: offset,
-                basis: basis_index,
-                slots,
-            });
-            offset += materials.last().map_or(0, |m| m.slots.len() as u32);
-        }
+        let MaterialSlots {
+            materials,
+            basis_families,
+            total_slots,
+            mut reasons,
+        } = material_slots(scene, counts)?;
         // Gray tensors when every light has one chromaticity (factored out as `tint`, which
         // the runtime multiplies back in) and no texture colours a slot; RGB otherwise.
         let mut colours: Vec<Vec3> = Vec::new();
@@ -176,7 +205,7 @@ impl SlotPlan {
             Environment::LatLong { texels, .. } => colours.extend(texels.iter().copied()),
         }
         let tint = common_chromaticity(&colours);
-        let textured = materials.iter().any(|m| m.textured && !m.slots.is_empty());
+        let textured = textured_slots(&materials);
         let single_tint = tint.is_some() && !emissive_texture;
         let channels = if single_tint && !textured { 1 } else { 3 };
         let tint = if channels == 1 {
@@ -200,11 +229,43 @@ impl SlotPlan {
             }
         ));
         Ok(SlotPlan {
-            total_slots: offset as usize,
+            total_slots,
             materials,
-            basis_families: used_bases,
+            basis_families,
             channels,
             tint,
+            reasons,
+        })
+    }
+
+    /// The slots of [`SlotPlan::new`] for tensors that are **per unit radiance** (the
+    /// per-vertex mode: the light is a runtime input, so there is no light colour to factor
+    /// out and `tint` is white): gray unless a base-colour texture colours a slot.
+    pub fn per_unit_radiance(
+        scene: &Scene,
+        counts: &[(Family, usize)],
+    ) -> Result<SlotPlan, PixelError> {
+        let MaterialSlots {
+            materials,
+            basis_families,
+            total_slots,
+            mut reasons,
+        } = material_slots(scene, counts)?;
+        let channels = if textured_slots(&materials) { 3 } else { 1 };
+        reasons.push(format!(
+            "tensors: {}",
+            if channels == 1 {
+                "gray (1 channel): per unit radiance, colours live in the coefficients and the light"
+            } else {
+                "RGB (3 channels): a diffuse texture is baked into slots"
+            }
+        ));
+        Ok(SlotPlan {
+            materials,
+            basis_families,
+            total_slots,
+            channels,
+            tint: Vec3::ONE,
             reasons,
         })
     }

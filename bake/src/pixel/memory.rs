@@ -27,7 +27,7 @@ use super::layout::SlotPlan;
 /// The process's own footprint (code, libraries, allocator arenas, thread stacks): the peak
 /// resident size of a `bake` of `furnace.glb` (no basis to build) at 256x256, 14 MiB, less
 /// its modelled scene and trace, rounded.
-const PROCESS_BYTES: u64 = 10 << 20;
+pub(crate) const PROCESS_BYTES: u64 = 10 << 20;
 
 /// Bytes the ray-query structure holds per triangle: the packed triangle (three 16-byte
 /// vectors), its original index, and the wide BVH's nodes and primitive indices.

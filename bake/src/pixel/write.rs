@@ -2,7 +2,7 @@
 //! per-group scale, written atomically.
 
 use half::f16;
-use prt_formats::pixel::{names, Precision};
+use prt_formats::pixel::{names, BasisMeta, Precision};
 use prt_formats::{BakeWriter, FormatError};
 
 use super::bake::PixelBake;
@@ -23,6 +23,20 @@ pub fn to_f16_scaled(values: &[f32]) -> (Vec<f16>, f32) {
         values.iter().map(|v| f16::from_f32(v * inv)).collect(),
         scale,
     )
+}
+
+/// Adds the tables of each basis as the tensor `basis.<i>.tables`, `[cells, num_bases]` (the
+/// per-vertex bake stores its PCA bases the same way).
+pub(crate) fn add_basis_tables<'a>(
+    w: &mut BakeWriter<'a>,
+    metas: &[BasisMeta],
+    tables: &'a [Vec<f32>],
+) -> Result<(), FormatError> {
+    for (b, (m, t)) in metas.iter().zip(tables).enumerate() {
+        let nb = m.basis.num_bases;
+        w.add_f32(&names::basis_tables(b), &[t.len() / nb.max(1), nb], t)?;
+    }
+    Ok(())
 }
 
 /// `[rows, cols]` row-major to `[cols, rows]` row-major.
@@ -110,14 +124,7 @@ pub fn write_bake_file(
             w.add_f32(nw, &[c.rank, p], wt).map_err(err)?;
         }
     }
-    let basis_names: Vec<String> = (0..bake.basis_tables.len())
-        .map(names::basis_tables)
-        .collect();
-    for (b, t) in bake.basis_tables.iter().enumerate() {
-        let nb = meta.bases[b].basis.num_bases;
-        w.add_f32(&basis_names[b], &[t.len() / nb.max(1), nb], t)
-            .map_err(err)?;
-    }
+    add_basis_tables(&mut w, &meta.bases, &bake.basis_tables).map_err(err)?;
     w.set_metadata(meta.to_json());
     let size = w.file_len().map_err(err)?;
     w.write_atomic(path).map_err(err)?;
