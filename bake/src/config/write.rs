@@ -89,6 +89,16 @@ impl BakeConfig {
                 let _ = writeln!(w, "error_target = {}", float(e));
             }
         }
+
+        if let Some(v) = &self.vertex {
+            let _ = writeln!(w, "\n[vertex]");
+            if let Some(n) = v.secondary {
+                let _ = writeln!(w, "secondary = {n}");
+            }
+            if let Some(k) = v.t0_terms {
+                let _ = writeln!(w, "t0_terms = {k}");
+            }
+        }
         t
     }
 }
@@ -163,6 +173,18 @@ mod tests {
             let v: toml::Value = toml::from_str(&format!("x = {s}")).unwrap();
             assert!(v["x"].is_float(), "{s}");
         }
+    }
+
+    #[test]
+    fn vertex_table_round_trips() {
+        let text =
+            "scene = \"x.gltf\"\nmode = \"vertex\"\n[vertex]\nsecondary = 7\nt0_terms = 200\n";
+        let c = BakeConfig::parse(text, "/s/bake.toml").unwrap();
+        let back = BakeConfig::parse(&c.to_toml(), "/s/bake.toml").unwrap();
+        assert_eq!(back, c);
+        assert!(c
+            .to_toml()
+            .contains("[vertex]\nsecondary = 7\nt0_terms = 200"));
     }
 
     #[test]
