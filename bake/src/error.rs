@@ -8,6 +8,7 @@ use prt_formats::Family;
 use crate::config::ConfigError;
 use crate::pixel::PixelError;
 use crate::scene::SceneError;
+use crate::vertex::VertexError;
 
 /// Why a bake (or a reference render's setup) failed.
 #[derive(Debug, thiserror::Error)]
@@ -21,13 +22,16 @@ pub enum BakeError {
     /// The scene loaded but has nothing to trace.
     #[error("{0}: the scene has no valid triangles")]
     NoTriangles(PathBuf),
-    /// The config asks for a bake mode this version cannot make.
-    #[error("{config}: mode = \"{mode}\" is not implemented yet; use mode = \"pixel\"")]
-    ModeNotImplemented {
+    /// A config was given to the run of the other mode (`run_pixel` with `mode = "vertex"`,
+    /// or the reverse).
+    #[error("{}: mode = \"{mode}\" is baked by run_{mode}, not run_{called}", config.display())]
+    WrongMode {
         /// The config file.
         config: PathBuf,
-        /// The mode asked for.
+        /// The config's mode.
         mode: &'static str,
+        /// The mode of the run that was called.
+        called: &'static str,
     },
     /// A basis of an editable family could not be built.
     #[error("building the {family} basis: {message}")]
@@ -51,6 +55,9 @@ pub enum BakeError {
     /// Laying out, baking or writing the per-pixel tensors failed.
     #[error(transparent)]
     Pixel(#[from] PixelError),
+    /// Planning, baking or writing the per-vertex tensors failed.
+    #[error(transparent)]
+    Vertex(#[from] VertexError),
     /// A `--set` edit names an unknown material or is malformed.
     #[error(transparent)]
     Override(#[from] prt_formats::OverrideError),

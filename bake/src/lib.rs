@@ -18,4 +18,5 @@ pub mod sampling;
 pub mod scene;
 pub mod testing;
 pub mod units;
+pub mod vertex;
 pub mod view;

@@ -9,6 +9,7 @@ use prt_formats::basis::BrdfBasis;
 use prt_formats::{MaterialOverride, OverrideValue};
 
 use crate::accel::Accel;
+use crate::basis::shading::default_shading_basis;
 use crate::basis::{BasisBuilder, BasisConfig};
 use crate::brdf::{Family, Lobe};
 use crate::config::{BakeConfig, Mode};
@@ -19,6 +20,7 @@ use crate::pixel::{self, BakeTimings, PixelBakeOptions, Precision, SlotPlan};
 use crate::progress::Progress;
 use crate::scene::Scene;
 use crate::units::human_bytes;
+use crate::vertex::{self, VertexBakeOptions, VertexPlan, VertexTimings};
 
 /// Loads the config and its scene, with errors that name the file; the loader's warnings
 /// (skipped primitives, ignored glTF features) go to `progress`.
@@ -149,6 +151,22 @@ pub fn build_bases(
     build_counted_bases(&basis_counts(scene, count, progress)?, progress)
 }
 
+/// How many basis BRDFs per family: an explicit count wins; else the config's `[basis]`
+/// count, else its error target; else the default.
+fn basis_count_setting(config: &BakeConfig, explicit: Option<usize>) -> BasisCount {
+    let basis_cfg = config.basis.as_ref();
+    match (
+        explicit,
+        basis_cfg.and_then(|b| b.count),
+        basis_cfg.and_then(|b| b.error_target),
+    ) {
+        (Some(n), _, _) => BasisCount::Fixed(n),
+        (None, Some(n), _) => BasisCount::Fixed(n as usize),
+        (None, None, Some(t)) => BasisCount::ErrorTarget(t as f64),
+        (None, None, None) => BasisCount::Default,
+    }
+}
+
 /// Command-line settings of a per-pixel bake on top of the config.
 #[derive(Clone, Debug, Default)]
 pub struct PixelRunSettings {
@@ -189,23 +207,13 @@ pub fn run_pixel(
 ) -> Result<PixelRunSummary, BakeError> {
     let start = Instant::now();
     if config.mode == Mode::Vertex {
-        return Err(BakeError::ModeNotImplemented {
+        return Err(BakeError::WrongMode {
             config: config.config_path.clone(),
             mode: "vertex",
+            called: "pixel",
         });
     }
-    // An explicit count wins; else the config's error target; else the default.
-    let basis_cfg = config.basis.as_ref();
-    let count = match (
-        s.basis_count,
-        basis_cfg.and_then(|b| b.count),
-        basis_cfg.and_then(|b| b.error_target),
-    ) {
-        (Some(n), _, _) => BasisCount::Fixed(n),
-        (None, Some(n), _) => BasisCount::Fixed(n as usize),
-        (None, None, Some(t)) => BasisCount::ErrorTarget(t as f64),
-        (None, None, None) => BasisCount::Default,
-    };
+    let count = basis_count_setting(config, s.basis_count);
     let counts = basis_counts(scene, count, progress)?;
     let plan = SlotPlan::new(scene, &counts)?;
     let opts = PixelBakeOptions {
@@ -275,6 +283,133 @@ pub fn run_pixel(
         estimated_trace_bytes: est.trace_bytes,
         seconds: start.elapsed().as_secs_f64(),
         basis_seconds,
+        timings: bake.timings,
+        stats: bake.meta.stats.clone(),
+    })
+}
+
+/// Command-line settings of a per-vertex bake on top of the config.
+#[derive(Clone, Debug, Default)]
+pub struct VertexRunSettings {
+    /// N1 (default: the config's `spp`).
+    pub spp: Option<u32>,
+    pub output: Option<PathBuf>,
+    /// Storage of T0 values, T1 and T2 (default f16).
+    pub precision: Option<Precision>,
+    pub max_memory: Option<u64>,
+    pub basis_count: Option<usize>,
+}
+
+/// What a per-vertex bake did, for the CLI's summary and `--json`.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct VertexRunSummary {
+    pub output: PathBuf,
+    pub file_bytes: u64,
+    /// The estimated peak memory ([`vertex::VertexMemoryEstimate::bytes`]).
+    pub estimated_bytes: u64,
+    /// Its parts: held throughout, the basis builds' peak, the trace and write's peak.
+    pub estimated_resident_bytes: u64,
+    pub estimated_basis_bytes: u64,
+    pub estimated_trace_bytes: u64,
+    /// Vertices baked (those in groups).
+    pub vertices: u64,
+    pub seconds: f64,
+    /// Building the PCA bases and the shading bases.
+    pub basis_seconds: f64,
+    /// The pre-pass that finds the active slots.
+    pub prepass_seconds: f64,
+    pub timings: VertexTimings,
+    pub stats: prt_formats::vertex::VertexBakeStats,
+}
+
+/// Runs a per-vertex bake for a config: refusals, the pre-pass, the allocation report and
+/// memory estimate (as notes on `progress`, before the bases are built and the vertices
+/// traced), the bases, the bake, the file.
+pub fn run_vertex(
+    config: &BakeConfig,
+    scene: &Scene,
+    s: &VertexRunSettings,
+    progress: &dyn Progress,
+) -> Result<VertexRunSummary, BakeError> {
+    let start = Instant::now();
+    if config.mode != Mode::Vertex {
+        return Err(BakeError::WrongMode {
+            config: config.config_path.clone(),
+            mode: "pixel",
+            called: "vertex",
+        });
+    }
+    let vcfg = config.vertex.clone().unwrap_or_default();
+    let opts = VertexBakeOptions {
+        samples: s.spp.unwrap_or(config.spp),
+        secondary: vcfg.secondary(),
+        reflections: config.reflections,
+        seed: config.seed,
+        t0_terms: vcfg.t0_terms() as usize,
+        precision: s.precision.unwrap_or(Precision::F16),
+    };
+    // Refuse what the mode cannot bake before any work.
+    opts.validate()?;
+    vertex::check_scene(scene)?;
+    let count = basis_count_setting(config, s.basis_count);
+    let counts = basis_counts(scene, count, progress)?;
+    let slots = SlotPlan::per_unit_radiance(scene, &counts)?;
+    let accel = Accel::build(scene);
+    let lights = LightSet::new(scene);
+    let integ = Integrator::new(scene, &accel, &lights, opts.reflections as usize, 1, 1);
+    let prepass_start = Instant::now();
+    let plan = VertexPlan::new(&integ, slots, &opts, Some(progress))?;
+    let prepass_seconds = prepass_start.elapsed().as_secs_f64();
+    let est = plan.estimate_memory(scene, &opts, rayon::current_num_threads());
+    progress.note(&format!(
+        "{}\nmemory estimate: {} peak ({} resident + the larger of basis build {} and trace {})",
+        plan.report(scene, &opts),
+        human_bytes(est.bytes),
+        human_bytes(est.resident_bytes),
+        human_bytes(est.basis_bytes),
+        human_bytes(est.trace_bytes),
+    ));
+    if let Some(limit) = s.max_memory {
+        if est.bytes > limit {
+            return Err(BakeError::MemoryLimit {
+                needed: est.bytes,
+                limit,
+            });
+        }
+    }
+    let basis_start = Instant::now();
+    let bases = build_counted_bases(&plan.slots.basis_families, progress)?;
+    let mut shading = Vec::new();
+    for f in plan.shading_families() {
+        let t = Instant::now();
+        let b = default_shading_basis(f).map_err(|e| BakeError::Basis {
+            family: f,
+            message: e.to_string(),
+        })?;
+        progress.note(&format!(
+            "shading basis {f}: ranks {} x {} x {} built in {:.2} s",
+            b.ranks.h,
+            b.ranks.o,
+            b.ranks.i,
+            t.elapsed().as_secs_f64()
+        ));
+        shading.push(b);
+    }
+    let basis_seconds = basis_start.elapsed().as_secs_f64();
+    let bake = vertex::bake_vertex_with(&integ, &plan, &bases, &shading, &opts, Some(progress))?;
+    let output = s.output.clone().unwrap_or_else(|| config.output.clone());
+    let file_bytes = vertex::write_vertex_file(&bake, &output)?;
+    Ok(VertexRunSummary {
+        output,
+        file_bytes,
+        estimated_bytes: est.bytes,
+        estimated_resident_bytes: est.resident_bytes,
+        estimated_basis_bytes: est.basis_bytes,
+        estimated_trace_bytes: est.trace_bytes,
+        vertices: plan.grouped_vertices() as u64,
+        seconds: start.elapsed().as_secs_f64(),
+        basis_seconds,
+        prepass_seconds,
         timings: bake.timings,
         stats: bake.meta.stats.clone(),
     })

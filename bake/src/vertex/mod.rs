@@ -1,0 +1,186 @@
+//! The per-vertex baker (thesis ch. 5; docs/vertex.md): per mesh vertex, the light arriving
+//! from the environment directly (T0, sparse Haar rows per incident basis function of the
+//! material's shading basis, and the visible fraction of each direction), after one
+//! reflection (T1, per light bin, slot and SH coefficient in the vertex frame) and after two
+//! (T2). `prt_formats::vertex` documents the file's meaning and layout; this module computes
+//! exactly that.
+//!
+//! - [`plan`](VertexPlan): the groups (one per material with vertices), the refusals (lights
+//!   other than the environment, unsupported reflections), the pre-pass that finds each group's
+//!   active slots, the allocation report and the memory estimate;
+//! - [`VertexTracer`]: one vertex traced into dense arrays ([`VertexResult`]), on the shared
+//!   [`Integrator`]'s surfaces and the per-pixel mode's [`BakeModel`](crate::pixel::BakeModel)
+//!   (slot evaluation and a coefficient-independent sampling mixture, so one trace serves every
+//!   material setting);
+//! - [`bake_vertex_with`]: every group in fixed blocks of vertices (rayon), Haar truncation,
+//!   storage precision and per-group scales;
+//! - [`write_vertex_file`]: the file, written atomically.
+//!
+//! `spp` means N1 in this mode: the directions traced from each vertex for T1 and T2.
+//! The result does not depend on the thread count: every vertex's sums run sequentially from
+//! its own random streams (`Rng::for_sample(seed, vertex, sample)`), results are placed by
+//! vertex index, and group-wide figures are reduced in vertex order.
+
+mod bake;
+mod error;
+mod plan;
+mod trace;
+mod write;
+
+#[cfg(test)]
+mod tests;
+
+use prt_formats::basis::{BrdfBasis, ShadingBasis};
+use prt_formats::pixel::Precision;
+use prt_formats::vertex::{cube_len, VertexBakeMeta, DEFAULT_T0_TERMS, DIRECT_CUBE};
+
+use crate::accel::Accel;
+use crate::integrator::Integrator;
+use crate::lights::LightSet;
+use crate::pixel::SlotPlan;
+use crate::progress::Progress;
+use crate::scene::Scene;
+
+pub use bake::{bake_vertex_with, VertexTimings};
+pub use error::VertexError;
+pub use plan::{check_scene, vertex_materials, PlannedGroup, VertexMemoryEstimate, VertexPlan};
+#[doc(hidden)]
+pub use trace::{EscapingPath, SecondBounce};
+pub use trace::{VertexResult, VertexTracer, T0_TEXELS};
+pub use write::{vertex_file_bytes, write_vertex_file, Stored};
+
+/// Largest N2 (`[vertex] secondary`).
+pub const MAX_SECONDARY: u32 = crate::config::MAX_SECONDARY;
+
+/// Settings of a per-vertex bake.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VertexBakeOptions {
+    /// N1: directions traced from each vertex for T1 and T2 (the config's `spp`).
+    pub samples: u32,
+    /// N2: directions sampled at each first hit (`[vertex] secondary`).
+    pub secondary: u32,
+    /// 2 (T0, T1) or 3 (adds T2).
+    pub reflections: u32,
+    /// The seed of the random streams.
+    pub seed: u64,
+    /// Haar terms kept per T0 row (`[vertex] t0_terms`).
+    pub t0_terms: usize,
+    /// Storage of T0 values, T1 and T2.
+    pub precision: Precision,
+}
+
+impl Default for VertexBakeOptions {
+    /// 64 samples, 4 secondary directions, 2 reflections, seed 0, 96 terms, f16.
+    fn default() -> Self {
+        VertexBakeOptions {
+            samples: crate::config::DEFAULT_SPP,
+            secondary: crate::config::DEFAULT_SECONDARY,
+            reflections: 2,
+            seed: 0,
+            t0_terms: DEFAULT_T0_TERMS,
+            precision: Precision::F16,
+        }
+    }
+}
+
+impl VertexBakeOptions {
+    /// Refuses reflections other than 2 or 3 and counts out of range, naming them.
+    pub fn validate(&self) -> Result<(), VertexError> {
+        if !(2..=3).contains(&self.reflections) {
+            return Err(VertexError::Reflections(self.reflections));
+        }
+        let range = |key, value: u64, lo: u64, hi: u64| {
+            if value < lo || value > hi {
+                Err(VertexError::OutOfRange { key, value, lo, hi })
+            } else {
+                Ok(())
+            }
+        };
+        range("spp", self.samples as u64, 1, crate::config::MAX_SPP as u64)?;
+        range(
+            "vertex.secondary",
+            self.secondary as u64,
+            1,
+            MAX_SECONDARY as u64,
+        )?;
+        range(
+            "vertex.t0_terms",
+            self.t0_terms as u64,
+            1,
+            cube_len(DIRECT_CUBE) as u64,
+        )
+    }
+}
+
+/// One group's tensors as they will be stored.
+pub struct VertexGroupData {
+    /// Global vertex indices, ascending.
+    pub vertices: Vec<u32>,
+    /// `[vertices, t0_rows, t0_terms]` Haar indices.
+    pub t0_index: Vec<u16>,
+    /// `[vertices, t0_rows, t0_terms]` Haar values (divided by the group's `scale_t0`).
+    pub t0_value: Stored,
+    /// `[vertices, 6 * 16 * 16]` visible fractions, 255 = all.
+    pub visibility: Vec<u8>,
+    /// `[vertices, 384, J, 16, channels]` (divided by `scale_t1`).
+    pub t1: Stored,
+    /// `[vertices, 24, J, I, channels]` (divided by `scale_t2`); empty when reflections = 2.
+    pub t2: Stored,
+}
+
+/// The result of a per-vertex bake, ready to be written ([`write_vertex_file`]).
+pub struct VertexBake {
+    /// Everything the file's metadata holds (inputs and deterministic figures only).
+    pub meta: VertexBakeMeta,
+    /// How long the bake took: reported by the tools, never written to the file.
+    pub timings: VertexTimings,
+    /// One per `meta.groups`.
+    pub groups: Vec<VertexGroupData>,
+    /// The shading bases with their tables (`meta.shading` holds them emptied).
+    pub shading: Vec<ShadingBasis>,
+    /// Tables of `meta.bases` (as stored in `basis.<i>.tables`).
+    pub basis_tables: Vec<Vec<f32>>,
+    /// The mesh, flat: positions and normals `[V, 3]`, uvs `[V, 2]`, triangles `[T, 3]`,
+    /// triangle materials `[T]`.
+    pub mesh: MeshData,
+    /// The lat-long environment `[h, w, 3]` (empty for a constant one).
+    pub environment: Vec<f32>,
+    /// Per `meta.textures`, its texels `[h, w, 3]`.
+    pub textures: Vec<Vec<f32>>,
+}
+
+/// The mesh tensors of a per-vertex bake, flat.
+pub struct MeshData {
+    /// `[V, 3]` world positions.
+    pub positions: Vec<f32>,
+    /// `[V, 3]` the unit normals the vertices were baked with.
+    pub normals: Vec<f32>,
+    /// `[V, 2]`.
+    pub uvs: Vec<f32>,
+    /// `[T, 3]`.
+    pub triangles: Vec<u32>,
+    /// `[T]`.
+    pub triangle_material: Vec<u32>,
+}
+
+/// Bakes `scene` per vertex: builds the ray-query structure, plans the groups (the pre-pass),
+/// and runs [`bake_vertex_with`]. `bases` are the PCA bases of the editable glossy families,
+/// `shading` the shading bases of every family with a lobe that a group's material uses
+/// (`prt_bake::basis::shading::default_shading_basis`; extra ones are ignored).
+pub fn bake_vertex(
+    scene: &Scene,
+    bases: &[BrdfBasis],
+    shading: &[ShadingBasis],
+    opts: &VertexBakeOptions,
+    progress: Option<&dyn Progress>,
+) -> Result<VertexBake, VertexError> {
+    opts.validate()?;
+    check_scene(scene)?;
+    let counts: Vec<_> = bases.iter().map(|b| (b.family, b.num_bases)).collect();
+    let slots = SlotPlan::per_unit_radiance(scene, &counts)?;
+    let accel = Accel::build(scene);
+    let lights = LightSet::new(scene);
+    let integ = Integrator::new(scene, &accel, &lights, opts.reflections as usize, 1, 1);
+    let plan = VertexPlan::new(&integ, slots, opts, progress)?;
+    bake_vertex_with(&integ, &plan, bases, shading, opts, progress)
+}

@@ -1,0 +1,575 @@
+//! One vertex traced into dense arrays: T0's rows at the 6x64x64 texel centres (before the
+//! Haar transform), the visible fractions at 6x16x16, T1 and T2 over the group's active slots
+//! ([`VertexResult`]); and the Haar truncation of the T0 rows.
+//!
+//! The quantities are those `prt_formats::vertex` documents. For T1 and T2, N1 directions w1
+//! leave the vertex uniformly over its hemisphere (pdf 1/(2 pi)); at a first hit y, N2
+//! directions w2 come from y's coefficient-independent mixture ([`BakeModel`]) and, with three
+//! reflections, each w2 that hits z continues with one w3 from z's mixture. Every sample i of
+//! vertex v draws from its own stream `Rng::for_sample(seed, v, i)` in a fixed order: 2
+//! numbers for w1, then 3 per w2 whatever happens, so the pre-pass (which draws only w1) sees
+//! the bake's very rays. The w3 directions (three reflections) draw from a second stream,
+//! `Rng::for_sample(seed, v, W3_STREAM + i)`, 3 numbers per w2 whether or not a w3 is
+//! needed: T1 is then the same, bit for bit, whether T2 is baked or not.
+//!
+//! The tensors are per unit radiance: the light is the runtime's input, so unlike the
+//! per-pixel mode there is no light colour (`SlotLayout::tint`) in them.
+
+use std::f64::consts::{PI, TAU};
+
+use glam::Vec3;
+use prt_formats::basis::{ShadingBasis, MAX_SHADING_RANK};
+use prt_formats::lighting::cubemap::{
+    direction_to_texel, texel_centre_direction, texel_index, Face,
+};
+use prt_formats::lighting::sh::sh_eval;
+use prt_formats::lighting::{HaarCube, SparseVector};
+use prt_formats::vertex::{
+    cube_len, vertex_frame, DIRECT_CUBE, SH_TERMS, T1_LIGHT_CUBE, T2_LIGHT_CUBE, VISIBILITY_CUBE,
+};
+
+use crate::integrator::{Integrator, MaterialModel, Slots};
+use crate::pixel::{BakeModel, SlotLayout};
+use crate::sampling::Rng;
+
+use super::error::VertexError;
+use super::plan::VertexPlan;
+use super::VertexBakeOptions;
+
+/// Offset of the sample index that keys the w3 stream (above any N1).
+const W3_STREAM: u64 = 1 << 40;
+
+/// Texels of the direct cube (6 x 64 x 64).
+pub const T0_TEXELS: usize = cube_len(DIRECT_CUBE);
+/// Texels of the visibility cube (6 x 16 x 16).
+const VIS_TEXELS: usize = cube_len(VISIBILITY_CUBE);
+/// Direct texels per visibility texel along a side (4: a 4 x 4 block).
+const VIS_BLOCK: usize = DIRECT_CUBE / VISIBILITY_CUBE;
+
+/// A vertex's position, frame (`prt_formats::vertex::vertex_frame`) and ray origin.
+#[derive(Clone, Debug)]
+pub(crate) struct VertexFrame {
+    pub t: Vec3,
+    pub b: Vec3,
+    pub n: Vec3,
+    /// `p + n eps`: where its rays start.
+    pub origin: Vec3,
+}
+
+impl VertexFrame {
+    pub fn new(p: Vec3, n: Vec3, eps: f32) -> VertexFrame {
+        let (t, b) = vertex_frame(n.to_array());
+        VertexFrame {
+            t: Vec3::from_array(t),
+            b: Vec3::from_array(b),
+            n,
+            origin: p + n * eps,
+        }
+    }
+
+    #[inline]
+    pub fn to_world(&self, l: Vec3) -> Vec3 {
+        self.t * l.x + self.b * l.y + self.n * l.z
+    }
+
+    #[inline]
+    pub fn to_local(&self, d: Vec3) -> Vec3 {
+        Vec3::new(d.dot(self.t), d.dot(self.b), d.dot(self.n))
+    }
+}
+
+/// A direction uniform over the local upper hemisphere (pdf 1/(2 pi)); draws 2 numbers.
+#[inline]
+pub(crate) fn first_direction(rng: &mut Rng) -> Vec3 {
+    let u = rng.next_vec2();
+    let z = u.x;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = std::f32::consts::TAU * u.y;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// The light bin (texel of a cube of side `size`) holding world direction `d`.
+#[inline]
+fn light_bin(size: usize, d: Vec3) -> usize {
+    let (face, i, j) = direction_to_texel(size, d.as_dvec3().to_array());
+    texel_index(size, face, i, j)
+}
+
+/// One vertex's transfer, dense and in f32 (what [`VertexTracer::trace`] returns).
+#[derive(Clone, Debug)]
+pub struct VertexResult {
+    /// The vertex.
+    pub vertex: u32,
+    /// Its group (index into `VertexPlan::groups`).
+    pub group: usize,
+    /// Rows of T0: the shading basis' `r_i` plus the irradiance row.
+    pub t0_rows: usize,
+    /// `[t0_rows][6 * 64 * 64]`: T0~ at each direct texel's centre (cube-map order), before
+    /// the Haar transform; 0 below the horizon and where occluded.
+    pub t0: Vec<f32>,
+    /// `[6 * 16 * 16]`: the fraction of each texel's 4 x 4 direct texels that are above the
+    /// horizon and visible.
+    pub visibility: Vec<f32>,
+    /// `[384][J][16][channels]`, J the group's active slots.
+    pub t1: Vec<f32>,
+    /// `[24][J][I][channels]` (empty with two reflections).
+    pub t2: Vec<f32>,
+    /// Rays traced for this vertex.
+    pub rays: u64,
+}
+
+impl VertexResult {
+    /// The visible fractions as stored: `round(255 f)`.
+    pub fn visibility_u8(&self) -> Vec<u8> {
+        self.visibility
+            .iter()
+            .map(|f| (f * 255.0).round().clamp(0.0, 255.0) as u8)
+            .collect()
+    }
+}
+
+/// A path from a vertex that reached the environment after one reflection (T1) or two (T2),
+/// as traced: what a test needs to project it independently.
+#[doc(hidden)]
+#[derive(Clone, Debug)]
+pub struct EscapingPath {
+    /// Sample index i (0..N1).
+    pub sample: u32,
+    /// w1 in the vertex frame.
+    pub w1_local: Vec3,
+    /// w1, world space.
+    pub w1_world: Vec3,
+    /// The material at y.
+    pub y_material: u32,
+    /// y's slot values for (wo = -w1, wi = w2), RGB.
+    pub y_slots: Vec<Vec3>,
+    /// w2, world space.
+    pub w2_world: Vec3,
+    /// `(w2 . n_y) / pdf(w2)`.
+    pub w2_weight: f32,
+    /// For a T2 path: the reflection at z.
+    pub second: Option<SecondBounce>,
+}
+
+/// The reflection at z of a T2 path.
+#[doc(hidden)]
+#[derive(Clone, Debug)]
+pub struct SecondBounce {
+    /// The material at z.
+    pub z_material: u32,
+    /// z's slot values for (wo = -w2, wi = w3).
+    pub z_slots: Vec<Vec3>,
+    /// w3, world space (it escapes).
+    pub w3_world: Vec3,
+    /// `(w3 . n_z) / pdf(w3)`.
+    pub w3_weight: f32,
+}
+
+/// One escaping path as the walk reports it (borrowing the walk's slot buffers).
+struct Bounce<'s> {
+    sample: u32,
+    w1_local: Vec3,
+    w1_world: Vec3,
+    y: &'s Slots,
+    w2: Vec3,
+    f2: f32,
+    second: Option<(&'s Slots, Vec3, f32)>,
+}
+
+/// Traces vertices of a plan: the frame, the texel table, each group's shading basis and
+/// slot maps, the Haar transform.
+pub struct VertexTracer<'a> {
+    integ: &'a Integrator<'a>,
+    plan: &'a VertexPlan,
+    layout: &'a SlotLayout,
+    model: BakeModel<'a>,
+    opts: VertexBakeOptions,
+    haar: HaarCube,
+    /// Per direct texel (cube-map order): its centre direction and its visibility texel.
+    texels: Vec<(Vec3, u16)>,
+    /// Per group: the shading basis of its material's family, if it has a lobe.
+    shading: Vec<Option<&'a ShadingBasis>>,
+    /// Per group: global slot -> j (u32::MAX when inactive).
+    active_index: Vec<Vec<u32>>,
+    /// Global slot -> i of T2 (u32::MAX when not a T2 slot).
+    t2_index: Vec<u32>,
+    /// Per vertex: its group.
+    vertex_group: Vec<Option<u32>>,
+}
+
+impl<'a> VertexTracer<'a> {
+    /// A tracer for `plan`'s groups; `layout` must be the plan's ([`VertexPlan::layout`]),
+    /// `shading` must hold a valid basis of every family with a lobe that a group uses.
+    pub fn new(
+        integ: &'a Integrator<'a>,
+        plan: &'a VertexPlan,
+        layout: &'a SlotLayout,
+        shading: &'a [ShadingBasis],
+        opts: &VertexBakeOptions,
+    ) -> Result<VertexTracer<'a>, VertexError> {
+        opts.validate()?;
+        if layout.materials != plan.slots.materials {
+            return Err(VertexError::Inconsistent(
+                "the slot layout is not the plan's".into(),
+            ));
+        }
+        let scene = integ.scene;
+        let mut group_shading = Vec::with_capacity(plan.groups.len());
+        for g in &plan.groups {
+            let Some(family) = g.lobe else {
+                group_shading.push(None);
+                continue;
+            };
+            let Some(b) = shading.iter().find(|b| b.family == family) else {
+                return Err(VertexError::MissingShading {
+                    material: scene.materials[g.material as usize].name.clone(),
+                    family,
+                });
+            };
+            b.validate().map_err(|e| VertexError::BadShading {
+                family,
+                message: e.to_string(),
+            })?;
+            group_shading.push(Some(b));
+        }
+        let total = layout.total_slots;
+        let active_index = plan
+            .groups
+            .iter()
+            .map(|g| {
+                let mut map = vec![u32::MAX; total];
+                for (j, &s) in g.active.iter().enumerate() {
+                    map[s as usize] = j as u32;
+                }
+                map
+            })
+            .collect();
+        let mut t2_index = vec![u32::MAX; total];
+        for (i, &s) in plan.t2_slots.iter().enumerate() {
+            t2_index[s as usize] = i as u32;
+        }
+        let mut vertex_group = vec![None; scene.positions.len()];
+        for (gi, g) in plan.groups.iter().enumerate() {
+            for &v in &g.vertices {
+                vertex_group[v as usize] = Some(gi as u32);
+            }
+        }
+        let mut texels = vec![(Vec3::ZERO, 0u16); T0_TEXELS];
+        for face in Face::ALL {
+            for j in 0..DIRECT_CUBE {
+                for i in 0..DIRECT_CUBE {
+                    let d = texel_centre_direction(DIRECT_CUBE, face, i, j);
+                    let vis = texel_index(VISIBILITY_CUBE, face, i / VIS_BLOCK, j / VIS_BLOCK);
+                    texels[texel_index(DIRECT_CUBE, face, i, j)] =
+                        (Vec3::from_array(d.map(|x| x as f32)), vis as u16);
+                }
+            }
+        }
+        let haar =
+            HaarCube::new(DIRECT_CUBE).map_err(|e| VertexError::Inconsistent(e.to_string()))?;
+        Ok(VertexTracer {
+            integ,
+            plan,
+            layout,
+            model: BakeModel::new(scene, layout),
+            opts: opts.clone(),
+            haar,
+            texels,
+            shading: group_shading,
+            active_index,
+            t2_index,
+            vertex_group,
+        })
+    }
+
+    /// The shading basis of group `g` (None for a diffuse material).
+    pub fn group_shading(&self, g: usize) -> Option<&'a ShadingBasis> {
+        self.shading[g]
+    }
+
+    /// The group of vertex `v`.
+    pub fn group_of(&self, v: u32) -> Option<usize> {
+        self.vertex_group
+            .get(v as usize)
+            .copied()
+            .flatten()
+            .map(|g| g as usize)
+    }
+
+    fn frame(&self, v: u32) -> VertexFrame {
+        VertexFrame::new(
+            self.integ.scene.positions[v as usize],
+            self.plan.normals[v as usize],
+            self.integ.eps(),
+        )
+    }
+
+    /// Traces vertex `v`: T0 rows, visibility, T1 and T2, dense.
+    pub fn trace(&self, v: u32) -> Result<VertexResult, VertexError> {
+        let g = self.group_of(v).ok_or(VertexError::NoGroup { vertex: v })?;
+        let frame = self.frame(v);
+        let shading = self.shading[g];
+        let (t0, t0_rows, visibility, direct_rays) = self.direct(&frame, shading);
+
+        let c = self.plan.slots.channels;
+        let jn = self.plan.groups[g].active.len();
+        let i_n = self.plan.t2_slots.len();
+        let mut t1 = vec![0.0f64; cube_len(T1_LIGHT_CUBE) * jn * SH_TERMS * c];
+        let mut t2 = vec![0.0f64; cube_len(T2_LIGHT_CUBE) * jn * i_n * c];
+        let j_of = &self.active_index[g];
+        let n1 = self.opts.samples as f64;
+        let n2 = self.opts.secondary as f64;
+        let walk_rays = self.walk(v, &frame, |b| {
+            let off_y = self.layout.materials[b.y.material as usize].slot_offset as usize;
+            let f2 = b.f2 as f64 / n2;
+            match b.second {
+                None => {
+                    // Monte Carlo SH projection over x's hemisphere (pdf 1/(2 pi)) of the
+                    // radiance y reflects from unit radiance in bin l(w2).
+                    let w = TAU / n1 * f2;
+                    let sh = sh_eval(b.w1_local.as_dvec3().to_array());
+                    let l = light_bin(T1_LIGHT_CUBE, b.w2);
+                    for (k, val) in b.y.as_slice().iter().enumerate() {
+                        let j = j_of[off_y + k];
+                        if j == u32::MAX {
+                            continue;
+                        }
+                        let base = (l * jn + j as usize) * SH_TERMS * c;
+                        for (s, y_s) in sh.iter().enumerate() {
+                            let a = w * y_s;
+                            for ch in 0..c {
+                                t1[base + s * c + ch] += a * val[ch] as f64;
+                            }
+                        }
+                    }
+                }
+                Some((z, w3, f3)) => {
+                    // The uniform radiance of the same irradiance: (1/pi) integral I2 cos.
+                    let w = b.w1_local.z as f64 / PI * (TAU / n1) * f2 * f3 as f64;
+                    let off_z = self.layout.materials[z.material as usize].slot_offset as usize;
+                    let l = light_bin(T2_LIGHT_CUBE, w3);
+                    for (k, vy) in b.y.as_slice().iter().enumerate() {
+                        let j = j_of[off_y + k];
+                        if j == u32::MAX {
+                            continue;
+                        }
+                        for (q, vz) in z.as_slice().iter().enumerate() {
+                            let i = self.t2_index[off_z + q];
+                            if i == u32::MAX {
+                                continue;
+                            }
+                            let base = ((l * jn + j as usize) * i_n + i as usize) * c;
+                            for ch in 0..c {
+                                t2[base + ch] += w * (vy[ch] as f64 * vz[ch] as f64);
+                            }
+                        }
+                    }
+                }
+            }
+        });
+        Ok(VertexResult {
+            vertex: v,
+            group: g,
+            t0_rows,
+            t0,
+            visibility,
+            t1: t1.iter().map(|&x| x as f32).collect(),
+            t2: t2.iter().map(|&x| x as f32).collect(),
+            rays: direct_rays + walk_rays,
+        })
+    }
+
+    /// Every path of vertex `v` that reaches the environment after one or two reflections,
+    /// in the order the bake accumulates them (for tests that project them independently).
+    #[doc(hidden)]
+    pub fn record_paths(&self, v: u32) -> Result<Vec<EscapingPath>, VertexError> {
+        self.group_of(v).ok_or(VertexError::NoGroup { vertex: v })?;
+        let frame = self.frame(v);
+        let mut out = Vec::new();
+        self.walk(v, &frame, |b| {
+            out.push(EscapingPath {
+                sample: b.sample,
+                w1_local: b.w1_local,
+                w1_world: b.w1_world,
+                y_material: b.y.material,
+                y_slots: b.y.as_slice().to_vec(),
+                w2_world: b.w2,
+                w2_weight: b.f2,
+                second: b.second.map(|(z, w3, f3)| SecondBounce {
+                    z_material: z.material,
+                    z_slots: z.as_slice().to_vec(),
+                    w3_world: w3,
+                    w3_weight: f3,
+                }),
+            })
+        });
+        Ok(out)
+    }
+
+    /// T0~ rows at the direct texels' centres and the visible fractions: one shadow ray per
+    /// texel above the horizon. Returns (rows, row count, visibility, rays).
+    fn direct(
+        &self,
+        frame: &VertexFrame,
+        shading: Option<&ShadingBasis>,
+    ) -> (Vec<f32>, usize, Vec<f32>, u64) {
+        let ri = shading.map_or(0, |b| b.ranks.i);
+        let rows = ri + 1;
+        let mut t0 = vec![0.0f32; rows * T0_TEXELS];
+        let mut visible = [0u16; VIS_TEXELS];
+        let mut u = [0.0f32; MAX_SHADING_RANK];
+        let mut rays = 0u64;
+        for (t, &(d, vis)) in self.texels.iter().enumerate() {
+            let cos = d.dot(frame.n);
+            if cos <= 0.0 {
+                continue;
+            }
+            rays += 1;
+            if self
+                .integ
+                .accel
+                .occluded(frame.origin, d, 0.0, f32::INFINITY)
+            {
+                continue;
+            }
+            visible[vis as usize] += 1;
+            if let Some(b) = shading {
+                b.u_i_row(frame.to_local(d).to_array(), &mut u);
+                for (k, uk) in u[..ri].iter().enumerate() {
+                    t0[k * T0_TEXELS + t] = uk * cos;
+                }
+            }
+            t0[ri * T0_TEXELS + t] = cos;
+        }
+        let per = (VIS_BLOCK * VIS_BLOCK) as f32;
+        let visibility = visible.iter().map(|&n| n as f32 / per).collect();
+        (t0, rows, visibility, rays)
+    }
+
+    /// The paths of T1 and T2 from vertex `v`: calls `visit` for each that escapes after one
+    /// reflection (T1) or two (T2, three reflections only). Returns the rays traced.
+    fn walk(&self, v: u32, frame: &VertexFrame, mut visit: impl FnMut(&Bounce)) -> u64 {
+        let integ = self.integ;
+        let accel = integ.accel;
+        let eps = integ.eps();
+        let three = self.opts.reflections >= 3;
+        let usable = |pdf: f32, f: f32| pdf > 0.0 && pdf.is_finite() && f.is_finite();
+        let mut ys = Slots::EMPTY;
+        let mut zs = Slots::EMPTY;
+        let mut rays = 0u64;
+        for i in 0..self.opts.samples {
+            let mut rng = Rng::for_sample(self.opts.seed, v as u64, i as u64);
+            let mut rng3 =
+                three.then(|| Rng::for_sample(self.opts.seed, v as u64, W3_STREAM + i as u64));
+            let w1_local = first_direction(&mut rng);
+            let w1 = frame.to_world(w1_local);
+            rays += 1;
+            let Some(hit) = accel.intersect(frame.origin, w1, 0.0, f32::INFINITY) else {
+                continue;
+            };
+            let y = integ.surface(&hit, w1);
+            let wo_y = y.to_local(-w1);
+            if wo_y.z <= 0.0 || self.layout.materials[y.material as usize].slots.is_empty() {
+                continue;
+            }
+            let y_origin = y.p + y.ng * eps;
+            for _ in 0..self.opts.secondary {
+                let bs = self.model.sample(&y, wo_y, &mut rng);
+                // This w2's three numbers of the w3 stream, used or not.
+                let mut u3 = rng3.as_mut().map(|r| {
+                    let before = r.clone();
+                    for _ in 0..3 {
+                        r.next_f32();
+                    }
+                    before
+                });
+                let Some(bs) = bs else { continue };
+                let w2 = y.to_world(bs.wi).normalize();
+                let f2 = bs.wi.z / bs.pdf;
+                if bs.wi.z <= 0.0 || w2.dot(y.ng) <= 0.0 || !usable(bs.pdf, f2) {
+                    continue;
+                }
+                self.model.eval(&y, 1, wo_y, bs.wi, &mut ys);
+                rays += 1;
+                let Some(hit2) = accel.intersect(y_origin, w2, 0.0, f32::INFINITY) else {
+                    visit(&Bounce {
+                        sample: i,
+                        w1_local,
+                        w1_world: w1,
+                        y: &ys,
+                        w2,
+                        f2,
+                        second: None,
+                    });
+                    continue;
+                };
+                let Some(rng3) = u3.as_mut() else {
+                    continue;
+                };
+                let z = integ.surface(&hit2, w2);
+                let wo_z = z.to_local(-w2);
+                if wo_z.z <= 0.0 || self.layout.materials[z.material as usize].slots.is_empty() {
+                    continue;
+                }
+                let Some(bs3) = self.model.sample(&z, wo_z, rng3) else {
+                    continue;
+                };
+                let w3 = z.to_world(bs3.wi).normalize();
+                let f3 = bs3.wi.z / bs3.pdf;
+                if bs3.wi.z <= 0.0 || w3.dot(z.ng) <= 0.0 || !usable(bs3.pdf, f3) {
+                    continue;
+                }
+                self.model.eval(&z, 2, wo_z, bs3.wi, &mut zs);
+                rays += 1;
+                if accel.occluded(z.p + z.ng * eps, w3, 0.0, f32::INFINITY) {
+                    continue;
+                }
+                visit(&Bounce {
+                    sample: i,
+                    w1_local,
+                    w1_world: w1,
+                    y: &ys,
+                    w2,
+                    f2,
+                    second: Some((&zs, w3, f3)),
+                });
+            }
+        }
+        rays
+    }
+
+    /// The area-weighted Haar transform of each T0 row and its `t0_terms` largest terms,
+    /// padded with (index 0, value 0): (indices, values, sum of squares of all coefficients,
+    /// sum of squares of the dropped ones). The transform is orthonormal in the solid-angle
+    /// metric, so `sum_t C0[index_t] value_t` is `integral L T0~ dw` for a light whose Haar
+    /// coefficients are C0, and the squares measure the truncation error of the function.
+    pub fn haar_terms(
+        &self,
+        r: &VertexResult,
+    ) -> Result<(Vec<u16>, Vec<f32>, f64, f64), VertexError> {
+        let terms = self.opts.t0_terms;
+        let mut index = Vec::with_capacity(r.t0_rows * terms);
+        let mut value = Vec::with_capacity(r.t0_rows * terms);
+        let (mut total, mut kept) = (0.0f64, 0.0f64);
+        let bad = |e: prt_formats::lighting::LightingError| VertexError::NonFinite {
+            vertex: r.vertex,
+            message: e.to_string(),
+        };
+        for row in r.t0.chunks_exact(T0_TEXELS) {
+            let coeffs = self.haar.forward(row).map_err(bad)?;
+            total += coeffs.iter().map(|&c| c as f64 * c as f64).sum::<f64>();
+            let sparse = SparseVector::keep_largest(&coeffs, terms).map_err(bad)?;
+            kept += sparse
+                .values()
+                .iter()
+                .map(|&c| c as f64 * c as f64)
+                .sum::<f64>();
+            let n = sparse.nnz();
+            index.extend(sparse.indices().iter().map(|&i| i as u16));
+            value.extend_from_slice(sparse.values());
+            index.extend(std::iter::repeat_n(0u16, terms - n));
+            value.extend(std::iter::repeat_n(0.0f32, terms - n));
+        }
+        Ok((index, value, total, (total - kept).max(0.0)))
+    }
+}

@@ -1,0 +1,159 @@
+//! Storage precision (f16 with a per-group, per-tensor scale, or f32) and the per-vertex bake
+//! file (`prt_formats::vertex::names`, docs/format.md "Vertex schema"), written atomically.
+
+use half::f16;
+use prt_formats::pixel::Precision;
+use prt_formats::vertex::{
+    cube_len, names, shading_tables, SH_TERMS, T1_LIGHT_CUBE, T2_LIGHT_CUBE, VISIBILITY_CUBE,
+};
+use prt_formats::{BakeWriter, FormatError};
+
+use crate::pixel::{add_basis_tables, to_f16_scaled};
+
+use super::error::VertexError;
+use super::VertexBake;
+
+/// Tensor values in their storage type.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Stored {
+    /// 32-bit floats (scale 1).
+    F32(Vec<f32>),
+    /// 16-bit floats, true value = stored x the group's scale.
+    F16(Vec<f16>),
+}
+
+impl Stored {
+    /// Number of values.
+    pub fn len(&self) -> usize {
+        match self {
+            Stored::F32(v) => v.len(),
+            Stored::F16(v) => v.len(),
+        }
+    }
+
+    /// Whether there are no values.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The stored values as f32 (not multiplied by the scale).
+    pub fn to_f32(&self) -> Vec<f32> {
+        match self {
+            Stored::F32(v) => v.clone(),
+            Stored::F16(v) => v.iter().map(|h| h.to_f32()).collect(),
+        }
+    }
+}
+
+/// Converts values to their storage: f32 as they are (scale 1), or f16 with the per-pixel
+/// writer's rule (the largest magnitude maps to 2^14, [`to_f16_scaled`]). Returns the stored
+/// values and the scale (true value = stored x scale).
+pub(crate) fn store(values: Vec<f32>, precision: Precision) -> (Stored, f32) {
+    match precision {
+        Precision::F32 => (Stored::F32(values), 1.0),
+        Precision::F16 => {
+            let (h, scale) = to_f16_scaled(&values);
+            (Stored::F16(h), scale)
+        }
+    }
+}
+
+fn add_stored<'a>(
+    w: &mut BakeWriter<'a>,
+    name: &str,
+    shape: &[usize],
+    data: &'a Stored,
+) -> Result<(), FormatError> {
+    match data {
+        Stored::F32(v) => w.add_f32(name, shape, v),
+        Stored::F16(v) => w.add_f16(name, shape, v),
+    }
+}
+
+/// Writes the bake file atomically (nothing is written on failure); returns its size in
+/// bytes.
+pub fn write_vertex_file(bake: &VertexBake, path: &std::path::Path) -> Result<u64, VertexError> {
+    let err = |source: FormatError| VertexError::Write {
+        path: path.to_path_buf(),
+        source: Box::new(source),
+    };
+    let w = writer(bake).map_err(err)?;
+    let size = w.file_len().map_err(err)?;
+    w.write_atomic(path).map_err(err)?;
+    Ok(size)
+}
+
+/// The bake file's bytes (what [`write_vertex_file`] writes), for tests and in-memory use.
+pub fn vertex_file_bytes(bake: &VertexBake) -> Result<Vec<u8>, FormatError> {
+    writer(bake)?.to_bytes()
+}
+
+/// Lays out every tensor and the metadata (borrowing the bake's buffers).
+fn writer(bake: &VertexBake) -> Result<BakeWriter<'_>, FormatError> {
+    let meta = &bake.meta;
+    let mut w = BakeWriter::new();
+    let (nv, nt) = (meta.vertices as usize, meta.triangles as usize);
+    let m = &bake.mesh;
+    w.add_f32(names::POSITIONS, &[nv, 3], &m.positions)?;
+    w.add_f32(names::NORMALS, &[nv, 3], &m.normals)?;
+    w.add_f32(names::UVS, &[nv, 2], &m.uvs)?;
+    w.add_u32(names::TRIANGLES, &[nt, 3], &m.triangles)?;
+    w.add_u32(names::TRIANGLE_MATERIAL, &[nt], &m.triangle_material)?;
+    if let prt_formats::vertex::EnvironmentMeta::LatLong { width, height, .. } = meta.environment {
+        w.add_f32(
+            names::ENVIRONMENT,
+            &[height as usize, width as usize, 3],
+            &bake.environment,
+        )?;
+    }
+    let c = meta.channels as usize;
+    let i_n = meta.t2_slots.len();
+    for (g, (data, gm)) in bake.groups.iter().zip(&meta.groups).enumerate() {
+        let v = gm.vertices as usize;
+        let (rows, terms) = (gm.t0_rows as usize, meta.t0_terms as usize);
+        let j = gm.active.len();
+        w.add_u32(&names::vertices(g), &[v], &data.vertices)?;
+        w.add_u16(&names::t0_index(g), &[v, rows, terms], &data.t0_index)?;
+        add_stored(
+            &mut w,
+            &names::t0_value(g),
+            &[v, rows, terms],
+            &data.t0_value,
+        )?;
+        w.add_u8(
+            &names::visibility(g),
+            &[v, cube_len(VISIBILITY_CUBE)],
+            &data.visibility,
+        )?;
+        add_stored(
+            &mut w,
+            &names::t1(g),
+            &[v, cube_len(T1_LIGHT_CUBE), j, SH_TERMS, c],
+            &data.t1,
+        )?;
+        if meta.reflections >= 3 {
+            add_stored(
+                &mut w,
+                &names::t2(g),
+                &[v, cube_len(T2_LIGHT_CUBE), j, i_n, c],
+                &data.t2,
+            )?;
+        }
+    }
+    for (b, basis) in bake.shading.iter().enumerate() {
+        for (table, values) in shading_tables(basis) {
+            w.add_f32(&names::shading_table(b, table), &[values.len()], values)?;
+        }
+    }
+    add_basis_tables(&mut w, &meta.bases, &bake.basis_tables)?;
+    for (t, (tm, texels)) in meta.textures.iter().zip(&bake.textures).enumerate() {
+        w.add_f32(
+            &names::texture(t),
+            &[tm.height as usize, tm.width as usize, 3],
+            texels,
+        )?;
+    }
+    // The metadata is plain numbers, strings and lists: it always serializes.
+    w.set_metadata(serde_json::to_value(meta).unwrap_or(serde_json::Value::Null));
+    Ok(w)
+}
