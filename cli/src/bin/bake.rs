@@ -4,6 +4,9 @@
 //!     bake scenes/cornell                      the same: a folder means its bake.toml
 //!     bake model.glb [--print-config]          bake a glTF with defaults (or print them)
 //!
+//! The config's `mode` picks the baker: per pixel (`run_pixel`) or per vertex (`run_vertex`;
+//! `--spp` is then N1, the directions traced from each vertex).
+//!
 //! Measurements and reports are the `bench` binary's (crate `prt-bench`).
 
 use std::path::PathBuf;
@@ -11,9 +14,11 @@ use std::process::ExitCode;
 
 use anyhow::{bail, Result};
 use clap::{Args, Parser, ValueEnum};
+use prt_bake::config::{BakeConfig, Mode};
 use prt_bake::pixel::Precision;
 use prt_bake::progress::Progress;
-use prt_bake::run::{load_scene, run_pixel, PixelRunSettings};
+use prt_bake::run::{load_scene, run_pixel, run_vertex, PixelRunSettings, VertexRunSettings};
+use prt_bake::scene::Scene;
 use prt_bake::units::human_bytes;
 use prt_cli::{parse_size, Stderr};
 
@@ -42,24 +47,28 @@ struct BakeArgs {
     /// Print the config (TOML) that INPUT resolves to on stdout and exit without baking.
     #[arg(long)]
     print_config: bool,
-    /// Samples per pixel (default: the config's).
+    /// Samples per pixel, or per vertex in vertex mode (default: the config's `spp`).
     #[arg(long)]
     spp: Option<u32>,
+    /// Image width (pixel mode only).
     #[arg(long)]
     width: Option<u32>,
+    /// Image height (pixel mode only).
     #[arg(long)]
     height: Option<u32>,
     /// Output bake file (default: the config's `output`).
     #[arg(long)]
     out: Option<PathBuf>,
-    /// Storage of the transfer tensors: f32 (exact relighting) or f16 (half the size; its
-    /// rounding is amplified by cancellation for sharp lobes, see docs/pixel.md).
-    #[arg(long, value_enum, default_value_t = PrecisionArg::F32)]
-    precision: PrecisionArg,
+    /// Storage of the transfer tensors: f32 (exact relighting) or f16 (half the size, with a
+    /// per-group scale; its rounding is amplified by cancellation for sharp lobes, see
+    /// docs/pixel.md). Default: f32 in pixel mode, f16 in vertex mode.
+    #[arg(long, value_enum)]
+    precision: Option<PrecisionArg>,
     /// Refuse to bake when the estimated memory exceeds this (e.g. 4G).
     #[arg(long, value_parser = parse_size)]
     max_memory: Option<u64>,
-    /// Also store a low-rank (PCA over pixels) variant with this many components per group.
+    /// Also store a low-rank (PCA over pixels) variant with this many components per group
+    /// (pixel mode only).
     #[arg(long)]
     compress_rank: Option<usize>,
     /// Basis BRDFs per editable glossy family (default: the config's [basis] count or
@@ -105,29 +114,36 @@ fn bake(input: &std::path::Path, a: &BakeArgs) -> Result<()> {
     }
     let config = resolved.config;
     let scene = load_scene(&config, &progress)?;
+    let precision = a.precision.map(|p| match p {
+        PrecisionArg::F32 => Precision::F32,
+        PrecisionArg::F16 => Precision::F16,
+    });
+    match config.mode {
+        Mode::Pixel => bake_pixel(&config, &scene, a, precision, &progress),
+        Mode::Vertex => bake_vertex(&config, &scene, a, precision, &progress),
+    }
+}
+
+fn bake_pixel(
+    config: &BakeConfig,
+    scene: &Scene,
+    a: &BakeArgs,
+    precision: Option<Precision>,
+    progress: &Stderr,
+) -> Result<()> {
     let settings = PixelRunSettings {
         spp: a.spp,
         width: a.width,
         height: a.height,
         output: a.out.clone(),
-        precision: Some(match a.precision {
-            PrecisionArg::F32 => Precision::F32,
-            PrecisionArg::F16 => Precision::F16,
-        }),
+        precision: Some(precision.unwrap_or(Precision::F32)),
         max_memory: a.max_memory,
         compress_rank: a.compress_rank,
         basis_count: a.basis_count,
     };
-    let summary = run_pixel(&config, &scene, &settings, &progress)?;
+    let summary = run_pixel(config, scene, &settings, progress)?;
     if a.json {
-        let mut out = serde_json::to_value(&summary)?;
-        if let Some(o) = out.as_object_mut() {
-            o.insert(
-                "peak_resident_bytes".into(),
-                prt_cli::peak_resident_bytes().into(),
-            );
-        }
-        println!("{out}");
+        print_json(&summary)?;
     } else {
         eprintln!(
             "baked {} in {:.2} s ({:.2} Mrays/s): {}",
@@ -137,5 +153,62 @@ fn bake(input: &std::path::Path, a: &BakeArgs) -> Result<()> {
             human_bytes(summary.file_bytes)
         );
     }
+    Ok(())
+}
+
+fn bake_vertex(
+    config: &BakeConfig,
+    scene: &Scene,
+    a: &BakeArgs,
+    precision: Option<Precision>,
+    progress: &Stderr,
+) -> Result<()> {
+    // Flags of the per-pixel image have no meaning here: refuse rather than ignore them.
+    for (given, flag) in [
+        (a.width.is_some(), "--width"),
+        (a.height.is_some(), "--height"),
+        (a.compress_rank.is_some(), "--compress-rank"),
+    ] {
+        if given {
+            bail!(
+                "{flag} applies to per-pixel bakes; {} has mode = \"vertex\"",
+                config.config_path.display()
+            );
+        }
+    }
+    let settings = VertexRunSettings {
+        spp: a.spp,
+        output: a.out.clone(),
+        precision,
+        max_memory: a.max_memory,
+        basis_count: a.basis_count,
+    };
+    let summary = run_vertex(config, scene, &settings, progress)?;
+    if a.json {
+        print_json(&summary)?;
+    } else {
+        eprintln!(
+            "baked {} in {:.2} s ({} vertices, {:.0} vertices/s, {:.2} Mrays/s): {}",
+            summary.output.display(),
+            summary.seconds,
+            summary.vertices,
+            summary.timings.vertices_per_second,
+            summary.timings.rays_per_second / 1e6,
+            human_bytes(summary.file_bytes)
+        );
+    }
+    Ok(())
+}
+
+/// The summary as one JSON object, with the process's peak resident memory.
+fn print_json(summary: &impl serde::Serialize) -> Result<()> {
+    let mut out = serde_json::to_value(summary)?;
+    if let Some(o) = out.as_object_mut() {
+        o.insert(
+            "peak_resident_bytes".into(),
+            prt_cli::peak_resident_bytes().into(),
+        );
+    }
+    println!("{out}");
     Ok(())
 }
