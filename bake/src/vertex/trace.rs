@@ -367,6 +367,12 @@ impl<'a> VertexTracer<'a> {
                 }
             }
         });
+        if let Some(x) = t1.iter().chain(&t2).find(|x| !x.is_finite()) {
+            return Err(VertexError::NonFinite {
+                vertex: v,
+                message: format!("T1 or T2 holds {x} (a material's BRDF or sampling density)"),
+            });
+        }
         Ok(VertexResult {
             vertex: v,
             group: g,
