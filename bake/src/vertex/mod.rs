@@ -5,16 +5,17 @@
 //! (T2). `prt_formats::vertex` documents the file's meaning and layout; this module computes
 //! exactly that.
 //!
-//! - [`plan`](VertexPlan): the groups (one per material with vertices), the refusals (lights
-//!   other than the environment, unsupported reflections), the pre-pass that finds each group's
-//!   active slots, the allocation report and the memory estimate;
-//! - [`VertexTracer`]: one vertex traced into dense arrays ([`VertexResult`]), on the shared
-//!   [`Integrator`]'s surfaces and the per-pixel mode's [`BakeModel`](crate::pixel::BakeModel)
-//!   (slot evaluation and a coefficient-independent sampling mixture, so one trace serves every
-//!   material setting);
-//! - [`bake_vertex_with`]: every group in fixed blocks of vertices (rayon), Haar truncation,
-//!   storage precision and per-group scales;
-//! - [`write_vertex_file`]: the file, written atomically.
+//! - [`VertexPlan`] (`plan.rs`): the groups (one per material with vertices), the refusals
+//!   (lights other than the environment, unsupported reflections), the pre-pass that finds
+//!   each group's active slots, the allocation report; `memory.rs` its memory estimate;
+//! - [`VertexTracer`] (`trace.rs`): one vertex traced into dense arrays ([`VertexResult`]), on
+//!   the shared [`Integrator`]'s surfaces and the per-pixel mode's
+//!   [`BakeModel`](crate::pixel::BakeModel) (slot evaluation and a coefficient-independent
+//!   sampling mixture, so one trace serves every material setting); `direct.rs` its T0 rows,
+//!   visibility and Haar truncation;
+//! - [`bake_vertex_with`] (`bake.rs`): every group in fixed blocks of vertices (rayon), storage
+//!   precision and per-group scales, the metadata;
+//! - [`write_vertex_file`] (`write.rs`): the file, written atomically.
 //!
 //! `spp` means N1 in this mode: the directions traced from each vertex for T1 and T2.
 //! The result does not depend on the thread count: every vertex's sums run sequentially from
@@ -22,7 +23,9 @@
 //! vertex index, and group-wide figures are reduced in vertex order.
 
 mod bake;
+mod direct;
 mod error;
+mod memory;
 mod plan;
 mod trace;
 mod write;
@@ -42,11 +45,13 @@ use crate::progress::Progress;
 use crate::scene::Scene;
 
 pub use bake::{bake_vertex_with, VertexTimings};
+pub use direct::T0_TEXELS;
 pub use error::VertexError;
-pub use plan::{check_scene, vertex_materials, PlannedGroup, VertexMemoryEstimate, VertexPlan};
+pub use memory::VertexMemoryEstimate;
+pub use plan::{check_scene, vertex_materials, PlannedGroup, VertexPlan};
 #[doc(hidden)]
 pub use trace::{EscapingPath, SecondBounce};
-pub use trace::{VertexResult, VertexTracer, T0_TEXELS};
+pub use trace::{VertexResult, VertexTracer};
 pub use write::{vertex_file_bytes, write_vertex_file, Stored};
 
 /// Largest N2 (`[vertex] secondary`).

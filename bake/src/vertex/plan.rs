@@ -7,29 +7,25 @@ use std::collections::BTreeSet;
 
 use glam::Vec3;
 use prt_formats::basis::TuckerRanks;
-use prt_formats::pixel::{BasisMeta, Precision};
+use prt_formats::pixel::BasisMeta;
 use prt_formats::vertex::{cube_len, SH_TERMS, T1_LIGHT_CUBE, T2_LIGHT_CUBE, VISIBILITY_CUBE};
 use prt_formats::Family;
 use rayon::prelude::*;
 
 use crate::integrator::Integrator;
-use crate::pixel::memory::{basis_build_bytes, scene_bytes, PROCESS_BYTES};
 use crate::pixel::{SlotLayout, SlotPlan};
 use crate::progress::{Progress, Stage};
 use crate::sampling::Rng;
-use crate::scene::{Environment, PunctualLight, Scene};
+use crate::scene::{PunctualLight, Scene};
 use crate::units::human_bytes;
 
 use super::error::VertexError;
-use super::trace::{first_direction, VertexFrame, T0_TEXELS};
+use super::memory::value_bytes;
+use super::trace::{first_direction, VertexFrame};
 use super::VertexBakeOptions;
 
 /// Vertices per parallel work item of the pre-pass and the bake (results do not depend on it).
 pub(crate) const BLOCK_VERTICES: usize = 4;
-
-/// Peak resident memory of building one default shading basis: 1.0 GB, measured
-/// (docs/brdf-basis.md, "Defaults and cost").
-const SHADING_BUILD_BYTES: u64 = 1 << 30;
 
 /// Refuses a scene with lights other than the environment (emissive materials used by a
 /// triangle, punctual lights), naming them: the per-vertex mode relights distant light only.
@@ -366,112 +362,6 @@ impl VertexPlan {
         ));
         r
     }
-
-    /// The bake's peak memory, modelled phase by phase as the code allocates (see
-    /// [`VertexMemoryEstimate`]).
-    pub fn estimate_memory(
-        &self,
-        scene: &Scene,
-        opts: &VertexBakeOptions,
-        threads: usize,
-    ) -> VertexMemoryEstimate {
-        let resident_bytes = PROCESS_BYTES + scene_bytes(scene);
-        let pca = self
-            .slots
-            .basis_families
-            .iter()
-            .map(|&(f, _)| basis_build_bytes(f))
-            .max()
-            .unwrap_or(0);
-        let shading = if self.shading_families().is_empty() {
-            0
-        } else {
-            SHADING_BUILD_BYTES
-        };
-        let basis_bytes = pca.max(shading);
-        let group_bytes: Vec<u64> = self
-            .groups
-            .iter()
-            .map(|g| self.bytes_per_vertex(g, opts) * g.vertices.len() as u64)
-            .collect();
-        let stored: u64 = group_bytes.iter().sum();
-        // A group is traced into f32 buffers, converted to its storage, and the f32 freed:
-        // with f16 storage the largest group's f32 values are held beside everything stored.
-        let f32_group = match opts.precision {
-            Precision::F32 => 0,
-            Precision::F16 => self
-                .groups
-                .iter()
-                .map(|g| {
-                    let (t0, t1, t2) = self.values_per_vertex(g, g.planned_t0_rows(), opts);
-                    (t0 + t1 + t2) as u64 * 4 * g.vertices.len() as u64
-                })
-                .max()
-                .unwrap_or(0),
-        };
-        // Per worker thread: the dense T0 rows of one vertex (f32) and their Haar transform
-        // (f64 inside, f32 out), the f64 T1 and T2 sums; and one wave of finished blocks.
-        let worker: u64 = self
-            .groups
-            .iter()
-            .map(|g| {
-                let rows = g.planned_t0_rows();
-                let (t0, t1, t2) = self.values_per_vertex(g, rows, opts);
-                let dense = (rows * T0_TEXELS * (4 + 8 + 8 + 4)) as u64;
-                let sums = (t1 + t2) as u64 * 8;
-                let wave = super::bake::WAVE_VERTICES as u64
-                    * ((t0 * 6 + t1 * 4 + t2 * 4) as u64 + cube_len(VISIBILITY_CUBE) as u64)
-                    / threads.max(1) as u64;
-                dense + sums + wave
-            })
-            .max()
-            .unwrap_or(0);
-        // Flat copies of the mesh, environment and textures for the file.
-        let env_texels = match &scene.environment {
-            Environment::Constant(_) => 0,
-            Environment::LatLong { texels, .. } => texels.len(),
-        };
-        let tex_texels: usize = scene.textures.iter().map(|t| t.texels.len()).sum();
-        let copies = (scene.positions.len() * 32
-            + scene.triangles.len() * 16
-            + (env_texels + tex_texels) * 12) as u64;
-        let trace_bytes = stored + f32_group + worker * threads.max(1) as u64 + copies;
-        VertexMemoryEstimate {
-            bytes: resident_bytes + basis_bytes.max(trace_bytes),
-            resident_bytes,
-            basis_bytes,
-            trace_bytes,
-            stored_bytes: stored,
-            group_bytes,
-        }
-    }
-}
-
-/// Bytes of one stored T0 value, T1 or T2 value.
-fn value_bytes(p: Precision) -> usize {
-    match p {
-        Precision::F32 => 4,
-        Precision::F16 => 2,
-    }
-}
-
-/// Memory estimate of a per-vertex bake, in bytes.
-#[derive(Clone, Debug, PartialEq)]
-pub struct VertexMemoryEstimate {
-    /// The estimated peak: `resident_bytes` plus the larger of the basis builds and the trace.
-    /// This is what `--max-memory` is checked against.
-    pub bytes: u64,
-    /// Held throughout: the process, the scene and the ray-query structure.
-    pub resident_bytes: u64,
-    /// Peak of building one basis (PCA or shading; one at a time).
-    pub basis_bytes: u64,
-    /// Peak of the trace and write: everything stored, the f32 values of the largest group
-    /// before conversion (f16 storage), the workers' scratch, flat copies for the file.
-    pub trace_bytes: u64,
-    /// What the groups store.
-    pub stored_bytes: u64,
-    /// Per group, its stored bytes.
-    pub group_bytes: Vec<u64>,
 }
 
 /// The materials (with slots) that the first rays of vertex `v` reach from their front, and

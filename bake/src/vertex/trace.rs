@@ -1,6 +1,6 @@
 //! One vertex traced into dense arrays: T0's rows at the 6x64x64 texel centres (before the
-//! Haar transform), the visible fractions at 6x16x16, T1 and T2 over the group's active slots
-//! ([`VertexResult`]); and the Haar truncation of the T0 rows.
+//! Haar transform) and the visible fractions at 6x16x16 (both from [`DirectCube`]), T1 and T2
+//! over the group's active slots ([`VertexResult`]).
 //!
 //! The quantities are those `prt_formats::vertex` documents. For T1 and T2, N1 directions w1
 //! leave the vertex uniformly over its hemisphere (pdf 1/(2 pi)); at a first hit y, N2
@@ -18,33 +18,22 @@
 use std::f64::consts::{PI, TAU};
 
 use glam::Vec3;
-use prt_formats::basis::{ShadingBasis, MAX_SHADING_RANK};
-use prt_formats::lighting::cubemap::{
-    direction_to_texel, texel_centre_direction, texel_index, Face,
-};
+use prt_formats::basis::ShadingBasis;
+use prt_formats::lighting::cubemap::{direction_to_texel, texel_index};
 use prt_formats::lighting::sh::sh_eval;
-use prt_formats::lighting::{HaarCube, SparseVector};
-use prt_formats::vertex::{
-    cube_len, vertex_frame, DIRECT_CUBE, SH_TERMS, T1_LIGHT_CUBE, T2_LIGHT_CUBE, VISIBILITY_CUBE,
-};
+use prt_formats::vertex::{cube_len, vertex_frame, SH_TERMS, T1_LIGHT_CUBE, T2_LIGHT_CUBE};
 
 use crate::integrator::{Integrator, MaterialModel, Slots};
 use crate::pixel::{BakeModel, SlotLayout};
 use crate::sampling::Rng;
 
+use super::direct::DirectCube;
 use super::error::VertexError;
 use super::plan::VertexPlan;
 use super::VertexBakeOptions;
 
 /// Offset of the sample index that keys the w3 stream (above any N1).
 const W3_STREAM: u64 = 1 << 40;
-
-/// Texels of the direct cube (6 x 64 x 64).
-pub const T0_TEXELS: usize = cube_len(DIRECT_CUBE);
-/// Texels of the visibility cube (6 x 16 x 16).
-const VIS_TEXELS: usize = cube_len(VISIBILITY_CUBE);
-/// Direct texels per visibility texel along a side (4: a 4 x 4 block).
-const VIS_BLOCK: usize = DIRECT_CUBE / VISIBILITY_CUBE;
 
 /// A vertex's position, frame (`prt_formats::vertex::vertex_frame`) and ray origin.
 #[derive(Clone, Debug)]
@@ -176,17 +165,14 @@ struct Bounce<'s> {
     second: Option<(&'s Slots, Vec3, f32)>,
 }
 
-/// Traces vertices of a plan: the frame, the texel table, each group's shading basis and
-/// slot maps, the Haar transform.
+/// Traces vertices of a plan: the direct cube, each group's shading basis and slot maps.
 pub struct VertexTracer<'a> {
     integ: &'a Integrator<'a>,
     plan: &'a VertexPlan,
     layout: &'a SlotLayout,
     model: BakeModel<'a>,
     opts: VertexBakeOptions,
-    haar: HaarCube,
-    /// Per direct texel (cube-map order): its centre direction and its visibility texel.
-    texels: Vec<(Vec3, u16)>,
+    direct: DirectCube,
     /// Per group: the shading basis of its material's family, if it has a lobe.
     shading: Vec<Option<&'a ShadingBasis>>,
     /// Per group: global slot -> j (u32::MAX when inactive).
@@ -254,27 +240,14 @@ impl<'a> VertexTracer<'a> {
                 vertex_group[v as usize] = Some(gi as u32);
             }
         }
-        let mut texels = vec![(Vec3::ZERO, 0u16); T0_TEXELS];
-        for face in Face::ALL {
-            for j in 0..DIRECT_CUBE {
-                for i in 0..DIRECT_CUBE {
-                    let d = texel_centre_direction(DIRECT_CUBE, face, i, j);
-                    let vis = texel_index(VISIBILITY_CUBE, face, i / VIS_BLOCK, j / VIS_BLOCK);
-                    texels[texel_index(DIRECT_CUBE, face, i, j)] =
-                        (Vec3::from_array(d.map(|x| x as f32)), vis as u16);
-                }
-            }
-        }
-        let haar =
-            HaarCube::new(DIRECT_CUBE).map_err(|e| VertexError::Inconsistent(e.to_string()))?;
+        let direct = DirectCube::new()?;
         Ok(VertexTracer {
             integ,
             plan,
             layout,
             model: BakeModel::new(scene, layout),
             opts: opts.clone(),
-            haar,
-            texels,
+            direct,
             shading: group_shading,
             active_index,
             t2_index,
@@ -309,7 +282,8 @@ impl<'a> VertexTracer<'a> {
         let g = self.group_of(v).ok_or(VertexError::NoGroup { vertex: v })?;
         let frame = self.frame(v);
         let shading = self.shading[g];
-        let (t0, t0_rows, visibility, direct_rays) = self.direct(&frame, shading);
+        let (t0, t0_rows, visibility, direct_rays) =
+            self.direct.trace(self.integ.accel, &frame, shading);
 
         let c = self.plan.slots.channels;
         let jn = self.plan.groups[g].active.len();
@@ -412,46 +386,6 @@ impl<'a> VertexTracer<'a> {
         Ok(out)
     }
 
-    /// T0~ rows at the direct texels' centres and the visible fractions: one shadow ray per
-    /// texel above the horizon. Returns (rows, row count, visibility, rays).
-    fn direct(
-        &self,
-        frame: &VertexFrame,
-        shading: Option<&ShadingBasis>,
-    ) -> (Vec<f32>, usize, Vec<f32>, u64) {
-        let ri = shading.map_or(0, |b| b.ranks.i);
-        let rows = ri + 1;
-        let mut t0 = vec![0.0f32; rows * T0_TEXELS];
-        let mut visible = [0u16; VIS_TEXELS];
-        let mut u = [0.0f32; MAX_SHADING_RANK];
-        let mut rays = 0u64;
-        for (t, &(d, vis)) in self.texels.iter().enumerate() {
-            let cos = d.dot(frame.n);
-            if cos <= 0.0 {
-                continue;
-            }
-            rays += 1;
-            if self
-                .integ
-                .accel
-                .occluded(frame.origin, d, 0.0, f32::INFINITY)
-            {
-                continue;
-            }
-            visible[vis as usize] += 1;
-            if let Some(b) = shading {
-                b.u_i_row(frame.to_local(d).to_array(), &mut u);
-                for (k, uk) in u[..ri].iter().enumerate() {
-                    t0[k * T0_TEXELS + t] = uk * cos;
-                }
-            }
-            t0[ri * T0_TEXELS + t] = cos;
-        }
-        let per = (VIS_BLOCK * VIS_BLOCK) as f32;
-        let visibility = visible.iter().map(|&n| n as f32 / per).collect();
-        (t0, rows, visibility, rays)
-    }
-
     /// The paths of T1 and T2 from vertex `v`: calls `visit` for each that escapes after one
     /// reflection (T1) or two (T2, three reflections only). Returns the rays traced.
     fn walk(&self, v: u32, frame: &VertexFrame, mut visit: impl FnMut(&Bounce)) -> u64 {
@@ -544,38 +478,15 @@ impl<'a> VertexTracer<'a> {
         rays
     }
 
-    /// The area-weighted Haar transform of each T0 row and its `t0_terms` largest terms,
-    /// padded with (index 0, value 0): (indices, values, sum of squares of all coefficients,
-    /// sum of squares of the dropped ones). The transform is orthonormal in the solid-angle
-    /// metric, so `sum_t C0[index_t] value_t` is `integral L T0~ dw` for a light whose Haar
-    /// coefficients are C0, and the squares measure the truncation error of the function.
+    /// T0's rows of a traced vertex, area-weighted-Haar transformed, each truncated to its
+    /// `t0_terms` largest terms padded with (index 0, value 0): (indices, values, sum of
+    /// squares of all coefficients, of the dropped ones). The transform is orthonormal in the
+    /// solid-angle metric, so `sum_t C0[index_t] value_t` is `integral L T0~ dw` for a light
+    /// whose Haar coefficients are C0.
     pub fn haar_terms(
         &self,
         r: &VertexResult,
     ) -> Result<(Vec<u16>, Vec<f32>, f64, f64), VertexError> {
-        let terms = self.opts.t0_terms;
-        let mut index = Vec::with_capacity(r.t0_rows * terms);
-        let mut value = Vec::with_capacity(r.t0_rows * terms);
-        let (mut total, mut kept) = (0.0f64, 0.0f64);
-        let bad = |e: prt_formats::lighting::LightingError| VertexError::NonFinite {
-            vertex: r.vertex,
-            message: e.to_string(),
-        };
-        for row in r.t0.chunks_exact(T0_TEXELS) {
-            let coeffs = self.haar.forward(row).map_err(bad)?;
-            total += coeffs.iter().map(|&c| c as f64 * c as f64).sum::<f64>();
-            let sparse = SparseVector::keep_largest(&coeffs, terms).map_err(bad)?;
-            kept += sparse
-                .values()
-                .iter()
-                .map(|&c| c as f64 * c as f64)
-                .sum::<f64>();
-            let n = sparse.nnz();
-            index.extend(sparse.indices().iter().map(|&i| i as u16));
-            value.extend_from_slice(sparse.values());
-            index.extend(std::iter::repeat_n(0u16, terms - n));
-            value.extend(std::iter::repeat_n(0.0f32, terms - n));
-        }
-        Ok((index, value, total, (total - kept).max(0.0)))
+        self.direct.haar_terms(r.vertex, &r.t0, self.opts.t0_terms)
     }
 }

@@ -1,0 +1,191 @@
+//! The bake as a whole: determinism across thread counts, the refusals, the allocation report
+//! and `--max-memory`, the file.
+use std::sync::Mutex;
+
+use glam::Vec3;
+
+use super::*;
+use prt_formats::vertex::{names, VertexBakeMeta};
+use prt_formats::BakeFile;
+
+use crate::progress::Progress;
+use crate::scene::PunctualLight;
+#[test]
+fn the_file_does_not_depend_on_the_thread_count() {
+    let scene = floor_and_ball();
+    let opts = VertexBakeOptions {
+        samples: 32,
+        reflections: 3,
+        ..Default::default()
+    };
+    let bytes = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let bake = bake_vertex(&scene, &[], &[], &opts, None).unwrap();
+            vertex_file_bytes(&bake).unwrap()
+        })
+    };
+    let one = bytes(1);
+    assert!(one == bytes(2), "1 and 2 threads give different files");
+}
+
+#[test]
+fn refusals_name_the_problem() {
+    let opts = VertexBakeOptions {
+        samples: 4,
+        ..Default::default()
+    };
+    let mut lit = open_plane();
+    lit.lights.push(PunctualLight::Point {
+        position: Vec3::Y,
+        intensity: Vec3::ONE,
+    });
+    let e = bake_vertex(&lit, &[], &[], &opts, None)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("1 punctual light (1 point)") && e.contains("environment only"),
+        "{e}"
+    );
+
+    let mut b = SceneBuilder::new();
+    let floor = b.material("floor", lambert(0.5), Vec3::ZERO, false);
+    let lamp = b.material("lamp", lambert(0.0), Vec3::splat(5.0), false);
+    b.quad(
+        [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 0.0, -1.0), Vec3::NEG_Z],
+        floor,
+    );
+    b.quad(
+        [
+            Vec3::Y,
+            Vec3::new(0.0, 1.0, -1.0),
+            Vec3::new(1.0, 1.0, -1.0),
+            Vec3::new(1.0, 1.0, 0.0),
+        ],
+        lamp,
+    );
+    let e = bake_vertex(&b.build(), &[], &[], &opts, None)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("area lights (emissive materials: lamp)"), "{e}");
+
+    for reflections in [1, 4] {
+        let o = VertexBakeOptions {
+            reflections,
+            ..opts.clone()
+        };
+        let e = bake_vertex(&open_plane(), &[], &[], &o, None)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(
+            e.contains(&format!("reflections = {reflections}")) && e.contains("2 (T0"),
+            "{e}"
+        );
+    }
+}
+
+/// Records the notes and stages a run reports.
+#[derive(Default)]
+struct Recorder(Mutex<Vec<String>>);
+
+impl Progress for Recorder {
+    fn start(&self, stage: &str, _total: u64) {
+        self.0.lock().unwrap().push(format!("stage: {stage}"));
+    }
+    fn note(&self, text: &str) {
+        self.0.lock().unwrap().push(text.to_string());
+    }
+}
+
+#[test]
+fn a_run_reports_the_allocation_and_refuses_max_memory_before_tracing() {
+    let scene = floor_and_ball();
+    let dir = std::env::temp_dir().join(format!("prt-vertex-run-{}", std::process::id()));
+    let mut config = crate::config::BakeConfig::with_defaults(dir.join("x.gltf"));
+    config.mode = crate::config::Mode::Vertex;
+    config.spp = 256;
+    config.output = dir.join("refused.prtbake");
+    let rec = Recorder::default();
+    let settings = crate::run::VertexRunSettings {
+        max_memory: Some(1 << 20),
+        ..Default::default()
+    };
+    let e = crate::run::run_vertex(&config, &scene, &settings, &rec)
+        .err()
+        .unwrap();
+    assert!(
+        matches!(e, crate::error::BakeError::MemoryLimit { .. }),
+        "{e}"
+    );
+    assert!(!config.output.exists());
+    let log = rec.0.lock().unwrap().clone();
+    assert!(
+        !log.iter().any(|l| l == "stage: baking vertices"),
+        "{log:?}"
+    );
+    let report = log
+        .iter()
+        .find(|l| l.starts_with("allocation"))
+        .expect("allocation note");
+    assert!(
+        report.contains("floor: 4 vertices x (T0 1 x 96, T1 384 x 1 x 16)")
+            && report.contains("ball: 42 vertices")
+            && report.contains("memory estimate"),
+        "{report}"
+    );
+    // The pixel run refuses a vertex config, and the vertex run a pixel one.
+    let e = crate::run::run_pixel(&config, &scene, &Default::default(), &rec)
+        .err()
+        .unwrap();
+    assert!(e.to_string().contains("run_vertex"), "{e}");
+}
+
+#[test]
+fn the_file_holds_the_schema() {
+    let scene = floor_and_ball();
+    let opts = VertexBakeOptions {
+        samples: 256,
+        reflections: 3,
+        t0_terms: 40,
+        ..Default::default()
+    };
+    let bake = bake_vertex(&scene, &[], &[], &opts, None).unwrap();
+    let path = std::env::temp_dir().join(format!("prt-vertex-file-{}.prtbake", std::process::id()));
+    let size = write_vertex_file(&bake, &path).unwrap();
+    let file = BakeFile::open(&path).unwrap();
+    std::fs::remove_file(&path).ok();
+    assert_eq!(size, file.file_bytes().len() as u64);
+    let meta: VertexBakeMeta = serde_json::from_value(file.metadata().clone()).unwrap();
+    meta.validate().unwrap();
+    assert_eq!(meta, bake.meta);
+    assert_eq!((meta.vertices, meta.triangles, meta.channels), (46, 82, 1));
+    assert_eq!(meta.t2_slots, vec![0, 1]);
+    let shape = |name: &str| file.tensor(name).unwrap().shape().to_vec();
+    assert_eq!(shape(names::POSITIONS), vec![46, 3]);
+    assert_eq!(shape(names::TRIANGLES), vec![82, 3]);
+    for (g, gm) in meta.groups.iter().enumerate() {
+        let v = gm.vertices as usize;
+        assert_eq!(shape(&names::t0_index(g)), vec![v, 1, 40]);
+        assert_eq!(shape(&names::visibility(g)), vec![v, 1536]);
+        assert_eq!(shape(&names::t1(g)), vec![v, 384, 1, 16, 1]);
+        assert_eq!(shape(&names::t2(g)), vec![v, 24, 1, 2, 1]);
+        // f16 with the group's scale: the largest stored magnitude is 2^14.
+        let t1 = file.tensor(&names::t1(g)).unwrap().to_f32_vec().unwrap();
+        let max = t1.iter().fold(0.0f32, |m, x| m.max(x.abs()));
+        assert_eq!(max, 16384.0);
+        let dense = bake.groups[g].t1.to_f32();
+        assert_eq!(dense, t1);
+    }
+    assert!(meta.stats.rays > 0 && meta.stats.t0_truncation_error.len() == 2);
+    assert!(meta
+        .stats
+        .t0_truncation_error
+        .iter()
+        .all(|e| (0.0..0.5).contains(e)));
+}
