@@ -1,32 +1,43 @@
-//! PRT runtime: opens a per-pixel bake file and produces images for any setting of the
-//! editable materials, without tracing a ray (see docs/pixel.md, "Storage and relighting"). It
-//! depends only on `prt-formats`, never on the baker.
+//! PRT runtime: opens a bake file and produces images for any setting of the editable
+//! materials, without tracing a ray. It depends only on `prt-formats`, never on the baker.
+//!
+//! - [`Relighter`]: a per-pixel bake (docs/pixel.md, "Storage and relighting"): camera and
+//!   light frozen into the file, materials edited.
+//! - [`vertex::VertexRelighter`]: a per-vertex bake (docs/vertex.md): environment, camera and
+//!   materials all edited.
+//!
+//! Both take material edits by the same rules (`materials.rs`).
 //!
 //! Relighting contracts each group's per-pixel transfer rows with weights built from the
 //! current slot coefficients ([`prt_formats::pixel::group_weights`]): uncompressed, one
 //! multiply-add per stored value and channel; compressed (PCA over pixels), the K components
 //! are contracted once per frame and each pixel costs K multiply-adds per channel.
 //!
-//! For the coming per-vertex mode (docs/vertex.md): [`light`] computes an environment's light
-//! coefficients (cube map, Haar, coarse cubes, prefiltered cubes); [`raster`] renders the
-//! visibility buffer (triangle, perspective-correct barycentrics, distance per pixel centre).
+//! The per-vertex mode is built on [`light`] (an environment's light coefficients: cube map,
+//! Haar, coarse cubes, prefiltered cubes) and [`raster`] (the visibility buffer: triangle,
+//! perspective-correct barycentrics, distance per pixel centre).
 
 #![warn(missing_docs)]
 
 pub mod light;
+mod materials;
 pub mod raster;
+pub mod vertex;
 
 use std::path::Path;
 use std::time::Instant;
 
 use half::f16;
-use prt_formats::basis::BrdfBasis;
-use prt_formats::overrides::{MaterialOverride, OverrideValue};
-use prt_formats::pixel::{
-    group_weights, names, slot_coefficients, MaterialParams, PixelBakeMeta, Precision,
-};
+use prt_formats::envmap::EnvMapError;
+use prt_formats::lighting::LightingError;
+use prt_formats::overrides::MaterialOverride;
+use prt_formats::pixel::{group_weights, names, MaterialParams, PixelBakeMeta, Precision};
+use prt_formats::vertex::BakeKind;
 use prt_formats::{BakeFile, Dtype, FormatError};
 use rayon::prelude::*;
+
+use materials::Materials;
+use raster::RasterError;
 
 /// Why a bake file could not be opened for relighting, or an edit or render was refused.
 #[derive(Debug, thiserror::Error)]
@@ -73,6 +84,77 @@ pub enum RuntimeError {
     /// [`Variant::Compressed`] was requested from a bake without a compressed variant.
     #[error("this bake file has no compressed variant (bake with a compression rank)")]
     NoCompressed,
+    /// The file is a bake of the other kind (per-pixel opened as per-vertex, or the reverse).
+    #[error("{path} is a {kind} bake, not a {expected} one: {hint}")]
+    WrongKind {
+        /// The bake file, as given.
+        path: String,
+        /// The kind the file is (`per-pixel`, `per-vertex`).
+        kind: &'static str,
+        /// The kind the caller reads.
+        expected: &'static str,
+        /// What to use instead.
+        hint: &'static str,
+    },
+    /// The file is a valid container but not a consistent per-vertex bake (wrong schema
+    /// version, metadata, tensor types or shapes, indices out of range); the reason names the
+    /// tensor or field.
+    #[error("{path}: not a consistent per-vertex bake file: {reason}")]
+    VertexSchema {
+        /// The bake file, as given.
+        path: String,
+        /// What is inconsistent.
+        reason: String,
+    },
+    /// Parameters set programmatically are not usable (negative or non-finite).
+    #[error("material '{name}': {reason}")]
+    BadParams {
+        /// The material name.
+        name: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// The image size or the camera cannot be rendered (zero or non-finite field of view,
+    /// non-finite frame, ...).
+    #[error(transparent)]
+    Raster(#[from] RasterError),
+    /// The camera's eye is inside an object (the rule the baker applies to a view,
+    /// [`prt_formats::view::judge_eye`]).
+    #[error(
+        "the eye ({}, {}, {}) is inside '{material}': {back} of {total} directions from it \
+         meet the back of a surface first; place the camera outside the object",
+        eye[0], eye[1], eye[2]
+    )]
+    EyeInside {
+        /// The eye position.
+        eye: [f32; 3],
+        /// The material most seen from behind.
+        material: String,
+        /// Directions meeting a back side first.
+        back: usize,
+        /// Directions traced.
+        total: usize,
+    },
+    /// An environment map handed over in memory is unusable (empty, wrong texel count,
+    /// NaN or infinite texels, ...).
+    #[error("environment map: {0}")]
+    Environment(#[from] EnvMapError),
+    /// The environment could not be turned into light coefficients (a non-finite rotation,
+    /// a split width the prefilter refuses).
+    #[error("environment: {0}")]
+    Lighting(#[from] LightingError),
+    /// The output buffer does not hold `width * height` RGB pixels.
+    #[error("output buffer holds {got} floats; a {width}x{height} RGB image needs {expected}")]
+    OutputSize {
+        /// Image width.
+        width: u32,
+        /// Image height.
+        height: u32,
+        /// Floats needed (`3 * width * height`).
+        expected: usize,
+        /// Floats given.
+        got: usize,
+    },
 }
 
 /// Which representation to relight from.
@@ -116,20 +198,34 @@ pub struct Frame {
 pub struct Relighter {
     file: BakeFile,
     meta: PixelBakeMeta,
-    bases: Vec<BrdfBasis>,
-    params: Vec<MaterialParams>,
+    materials: Materials,
     kernel: Kernel,
 }
 
 impl Relighter {
-    /// Opens and validates a bake file (checksums verified).
+    /// Opens and validates a per-pixel bake file (checksums verified). A per-vertex bake is
+    /// refused with [`RuntimeError::WrongKind`] (open it with [`vertex::VertexRelighter`]).
     pub fn open(path: impl AsRef<Path>) -> Result<Relighter, RuntimeError> {
-        let path = path.as_ref();
-        let file = BakeFile::open(path)?;
+        Relighter::from_file(BakeFile::open(path)?)
+    }
+
+    /// Validates an opened bake file as a per-pixel bake (see [`Relighter::open`]).
+    pub fn from_file(file: BakeFile) -> Result<Relighter, RuntimeError> {
+        let path = file.path().to_path_buf();
         let schema = |reason: String| RuntimeError::Schema {
             path: path.display().to_string(),
             reason,
         };
+        if BakeKind::of_metadata(file.metadata()) == Some(BakeKind::Vertex) {
+            return Err(RuntimeError::WrongKind {
+                path: path.display().to_string(),
+                kind: BakeKind::Vertex.describe(),
+                expected: BakeKind::Pixel.describe(),
+                hint: "relight it with the per-vertex runtime (prt_runtime::vertex::\
+                       VertexRelighter; `relight` chooses it by itself and takes --env, \
+                       --camera and --width/--height)",
+            });
+        }
         let meta: PixelBakeMeta = serde_json::from_value(file.metadata().clone())
             .map_err(|e| schema(format!("metadata does not match the per-pixel schema: {e}")))?;
         if meta.pixel_schema_version != prt_formats::pixel::PIXEL_SCHEMA_VERSION {
@@ -146,26 +242,7 @@ impl Relighter {
                 meta.channels
             )));
         }
-        let bases: Vec<BrdfBasis> = meta.bases.iter().map(|b| b.basis.clone()).collect();
-        for (i, b) in bases.iter().enumerate() {
-            // Everything relighting reads of a basis: its sampled parameters and coefficients.
-            if let Err(e) = b.validate_coefficients() {
-                return Err(schema(format!(
-                    "basis {i} ({}) has an inconsistent coefficient table: {e}",
-                    b.family
-                )));
-            }
-        }
-        // Every material, not only those seen in the image: edits and the slot coefficients
-        // read every material's basis.
-        for m in &meta.materials {
-            if m.basis.is_some_and(|b| b as usize >= bases.len()) {
-                return Err(schema(format!(
-                    "material '{}' names a missing basis",
-                    m.name
-                )));
-            }
-        }
+        let materials = Materials::new(&meta.materials, &meta.bases).map_err(schema)?;
         let nslots: usize = meta.materials.iter().map(|m| m.slots.len()).sum();
         let (w, h) = (meta.width as usize, meta.height as usize);
         file.tensor(names::EMISSION)?.require_shape(&[h, w, 3])?;
@@ -234,12 +311,10 @@ impl Relighter {
                 file.tensor(&names::weights(g))?.require_shape(&[k, p])?;
             }
         }
-        let params = meta.materials.iter().map(|m| m.params()).collect();
         Ok(Relighter {
             file,
             meta,
-            bases,
-            params,
+            materials,
             kernel: Kernel::Auto,
         })
     }
@@ -272,86 +347,19 @@ impl Relighter {
 
     /// Current parameters of material `name`.
     pub fn params(&self, name: &str) -> Result<MaterialParams, RuntimeError> {
-        Ok(self.params[self.material_index(name)?])
-    }
-
-    fn material_index(&self, name: &str) -> Result<usize, RuntimeError> {
-        self.meta
-            .materials
-            .iter()
-            .position(|m| m.name == name)
-            .ok_or_else(|| RuntimeError::UnknownMaterial {
-                name: name.to_string(),
-                available: self
-                    .meta
-                    .materials
-                    .iter()
-                    .map(|m| m.name.as_str())
-                    .collect::<Vec<_>>()
-                    .join(", "),
-            })
+        self.materials.params(name)
     }
 
     /// Applies one `--set MATERIAL.PARAM=VALUE` edit (values already range-checked by the
     /// parser; shininess/alpha outside the basis' sampled range are clamped by it).
     pub fn apply(&mut self, o: &MaterialOverride) -> Result<(), RuntimeError> {
-        let i = self.material_index(&o.material)?;
-        let m = &self.meta.materials[i];
-        if !m.editable {
-            return Err(RuntimeError::NotEditable {
-                name: m.name.clone(),
-                editable: self
-                    .meta
-                    .materials
-                    .iter()
-                    .filter(|m| m.editable)
-                    .map(|m| m.name.as_str())
-                    .collect::<Vec<_>>()
-                    .join(", "),
-            });
-        }
-        let param = o.value.param();
-        if !m.family.has_param(param) {
-            return Err(RuntimeError::WrongParam {
-                name: m.name.clone(),
-                family: m.family.to_string(),
-                param: param.to_string(),
-            });
-        }
-        let p = &mut self.params[i];
-        match o.value {
-            OverrideValue::Kd(c) => p.kd = c,
-            OverrideValue::Ks(c) => p.ks = c,
-            OverrideValue::Shininess(v) | OverrideValue::Alpha(v) => p.param = v,
-            // A parameter the syntax knows but this runtime does not.
-            ref other => {
-                return Err(RuntimeError::WrongParam {
-                    name: m.name.clone(),
-                    family: m.family.to_string(),
-                    param: other.param().to_string(),
-                })
-            }
-        }
-        Ok(())
+        self.materials.apply(o)
     }
 
     /// RGB coefficient of every global slot for the current parameters, and whether any
     /// parameter lay outside its basis' sampled range (and was clamped).
     pub fn coefficients(&self) -> (Vec<[f32; 3]>, bool) {
-        let mut out = Vec::new();
-        let mut clamped = false;
-        for (m, p) in self.meta.materials.iter().zip(&self.params) {
-            let lobe = match m.basis {
-                Some(b) => {
-                    let (c, cl) = self.bases[b as usize].coefficients(p.param);
-                    clamped |= cl;
-                    c
-                }
-                None => Vec::new(),
-            };
-            out.extend(slot_coefficients(m, p, &lobe));
-        }
-        (out, clamped)
+        self.materials.coefficients()
     }
 
     /// Relights the image for the current parameters.

@@ -1,0 +1,365 @@
+//! The per-vertex stages that do not depend on the view (docs/vertex.md, sections 3 and 4):
+//!
+//! - the **light stage**, when the environment changes: per vertex, T0's sparse Haar rows
+//!   dotted with C0 (`T0dot`), and T1 and T2 contracted with the coarse light cubes C1 and C2
+//!   over their light bins (`L1[j][s]`, `L2[j][i]`), all RGB and scaled back by the group's
+//!   scales; they do not change with materials or the view;
+//! - the **material stage**, when materials change: the light-contracted tensors contracted
+//!   with the slot coefficients into `I1[s]` (SH of the one-reflection light) and `I2`
+//!   (uniform radiance of the two-reflection light), then the irradiance `E` and the incident
+//!   projections `U[c]` onto the shading basis' `U^i` rows, with the hemisphere constants of
+//!   `constants.rs`.
+//!
+//! Every vertex is computed on its own in a fixed order of operations, so the results do not
+//! depend on the number of threads.
+
+use half::f16;
+use half::slice::HalfFloatSliceExt;
+use prt_formats::lighting::sh::SH_COUNT;
+use prt_formats::vertex::{cube_len, names, VertexBakeMeta, T1_LIGHT_CUBE, T2_LIGHT_CUBE};
+use prt_formats::{BakeFile, Dtype};
+use rayon::prelude::*;
+
+use super::constants::ShadingConstants;
+use super::open::Scene;
+use crate::light::LightCoefficients;
+use crate::RuntimeError;
+
+/// Offset of the irradiance `E` (RGB) in a vertex's record.
+pub(super) const E_AT: usize = 0;
+/// Offset of `I2` (RGB).
+pub(super) const I2_AT: usize = 3;
+/// Offset of `I1[s]` (16 x RGB).
+pub(super) const I1_AT: usize = 6;
+/// Offset of `U[c]` (r_i x RGB).
+pub(super) const U_AT: usize = I1_AT + 3 * SH_COUNT;
+
+/// Light bins converted from f16 at a time (keeps the converted block in L1).
+const BINS_PER_BLOCK: usize = 16;
+
+/// One group's light-stage results.
+#[derive(Clone, Debug, Default)]
+pub(super) struct GroupLight {
+    /// `T0dot[v][k]`, RGB, `[V_g][rows]`.
+    pub t0dot: Vec<[f32; 3]>,
+    /// `L1[v][j][s][ch]`, `[V_g][J][16][3]`.
+    pub l1: Vec<f32>,
+    /// `L2[v][j][i][ch]`, `[V_g][J][I][3]` (empty when reflections < 3).
+    pub l2: Vec<f32>,
+}
+
+/// One group's material-stage results: per vertex a record `[E, I2, I1[16], U[rank]]`, RGB
+/// each ([`E_AT`], [`I2_AT`], [`I1_AT`], [`U_AT`]).
+#[derive(Clone, Debug, Default)]
+pub(super) struct GroupShade {
+    /// Floats per vertex: `U_AT + 3 rank`.
+    pub stride: usize,
+    /// `r_i` of the group's shading basis (0 without one).
+    pub rank: usize,
+    /// `[V_g][stride]`.
+    pub data: Vec<f32>,
+}
+
+/// Stored values of a T0, T1 or T2 tensor.
+#[derive(Clone, Copy)]
+enum Values<'a> {
+    F32(&'a [f32]),
+    F16(&'a [f16]),
+}
+
+impl<'a> Values<'a> {
+    fn read(file: &'a BakeFile, name: &str) -> Result<Values<'a>, RuntimeError> {
+        let t = file.tensor(name)?;
+        Ok(match t.dtype() {
+            Dtype::F16 => Values::F16(t.as_f16()?),
+            _ => Values::F32(t.as_f32()?),
+        })
+    }
+
+    /// Value `i` as f32.
+    #[inline]
+    fn get(&self, i: usize) -> f32 {
+        match self {
+            Values::F32(v) => v[i],
+            Values::F16(v) => v[i].to_f32(),
+        }
+    }
+
+    /// `n` values from `start` as f32: borrowed, or converted into `scratch`.
+    #[inline]
+    fn block<'s>(&'s self, start: usize, n: usize, scratch: &'s mut Vec<f32>) -> &'s [f32] {
+        match self {
+            Values::F32(v) => &v[start..start + n],
+            Values::F16(v) => {
+                scratch.resize(n, 0.0);
+                v[start..start + n].convert_to_f32_slice(scratch);
+                scratch
+            }
+        }
+    }
+}
+
+/// `acc[c][k] += C[l][c] x_l[k]` (gray values, `acc` channel-major `3 x width`) or
+/// `acc[k] += C[l][k % 3] x_l[k]` (RGB values interleaved, `acc` `width` long) for the bins
+/// `l` of `x` (`bins x width` values, `c` one RGB triple per bin).
+#[inline]
+fn contract_bins(x: &[f32], width: usize, gray: bool, c: &[[f32; 3]], acc: &mut [f32]) {
+    for (xb, cl) in x.chunks_exact(width).zip(c) {
+        if gray {
+            let (r, rest) = acc.split_at_mut(width);
+            let (g, b) = rest.split_at_mut(width);
+            for (k, &v) in xb.iter().enumerate() {
+                r[k] += cl[0] * v;
+                g[k] += cl[1] * v;
+                b[k] += cl[2] * v;
+            }
+        } else {
+            for (a, v) in acc.chunks_exact_mut(3).zip(xb.chunks_exact(3)) {
+                a[0] += cl[0] * v[0];
+                a[1] += cl[1] * v[1];
+                a[2] += cl[2] * v[2];
+            }
+        }
+    }
+}
+
+/// One vertex's `out[e][ch] = scale sum_l C[l][ch] T[v][l][e][ch']` over `bins` light bins of
+/// `elements` elements each (`out` is `elements x 3`, interleaved).
+#[allow(clippy::too_many_arguments)]
+fn contract_vertex(
+    values: Values,
+    v: usize,
+    bins: usize,
+    elements: usize,
+    channels: usize,
+    c: &[[f32; 3]],
+    scale: f32,
+    scratch: &mut (Vec<f32>, Vec<f32>),
+    out: &mut [f32],
+) {
+    let width = elements * channels;
+    let gray = channels == 1;
+    let (acc, conv) = scratch;
+    acc.clear();
+    acc.resize(3 * elements, 0.0);
+    let row = v * bins * width;
+    let mut l0 = 0;
+    while l0 < bins {
+        let n = BINS_PER_BLOCK.min(bins - l0);
+        let x = values.block(row + l0 * width, n * width, conv);
+        contract_bins(x, width, gray, &c[l0..l0 + n], acc);
+        l0 += n;
+    }
+    if gray {
+        for (k, o) in out.chunks_exact_mut(3).enumerate() {
+            for (ch, oc) in o.iter_mut().enumerate() {
+                *oc = scale * acc[ch * elements + k];
+            }
+        }
+    } else {
+        for (o, a) in out.iter_mut().zip(acc.iter()) {
+            *o = scale * a;
+        }
+    }
+}
+
+/// The light stage of every group for the light `light` (see the module documentation).
+pub(super) fn light_stage(
+    file: &BakeFile,
+    meta: &VertexBakeMeta,
+    scene: &Scene,
+    light: &LightCoefficients,
+) -> Result<Vec<GroupLight>, RuntimeError> {
+    let channels = meta.channels as usize;
+    let terms = meta.t0_terms as usize;
+    let c1 = light.one_bounce.texels();
+    let c2 = light.two_bounce.texels();
+    let n_i = meta.t2_slots.len();
+    let mut out = Vec::with_capacity(meta.groups.len());
+    for (g, (gm, layout)) in meta.groups.iter().zip(&scene.groups).enumerate() {
+        let nv = layout.vertices.len();
+        let rows = layout.rows;
+        let j = layout.active;
+
+        // T0: sparse Haar dots, per row.
+        let index = file.tensor(&names::t0_index(g))?.as_u16()?;
+        let value = Values::read(file, &names::t0_value(g))?;
+        let mut t0dot = vec![[0.0f32; 3]; nv * rows];
+        t0dot
+            .par_chunks_mut(rows.max(1))
+            .enumerate()
+            .with_min_len(64)
+            .for_each(|(v, o)| {
+                for (k, ok) in o.iter_mut().enumerate() {
+                    let at = (v * rows + k) * terms;
+                    let mut acc = [0.0f32; 3];
+                    for (t, &i) in index[at..at + terms].iter().enumerate() {
+                        let x = value.get(at + t);
+                        let i = i as usize;
+                        acc[0] += x * light.haar[0][i];
+                        acc[1] += x * light.haar[1][i];
+                        acc[2] += x * light.haar[2][i];
+                    }
+                    *ok = acc.map(|a| a * gm.scale_t0);
+                }
+            });
+
+        // T1 and T2: dense contractions over the light bins.
+        let contract = |name: String, bins: usize, elements: usize, c: &[[f32; 3]], scale| {
+            let values = Values::read(file, &name)?;
+            let mut o = vec![0.0f32; nv * elements * 3];
+            if elements > 0 {
+                o.par_chunks_mut(elements * 3).enumerate().for_each_init(
+                    || (Vec::new(), Vec::new()),
+                    |scratch, (v, ov)| {
+                        contract_vertex(values, v, bins, elements, channels, c, scale, scratch, ov)
+                    },
+                );
+            }
+            Ok::<_, RuntimeError>(o)
+        };
+        let l1 = contract(
+            names::t1(g),
+            cube_len(T1_LIGHT_CUBE),
+            j * SH_COUNT,
+            c1,
+            gm.scale_t1,
+        )?;
+        let l2 = if meta.reflections >= 3 {
+            contract(
+                names::t2(g),
+                cube_len(T2_LIGHT_CUBE),
+                j * n_i,
+                c2,
+                gm.scale_t2,
+            )?
+        } else {
+            Vec::new()
+        };
+        out.push(GroupLight { t0dot, l1, l2 });
+    }
+    Ok(out)
+}
+
+/// The material stage of every group for slot coefficients `coeff` (one RGB triple per
+/// global slot). `constants[b]` belongs to shading basis b; `ehat` is `Ehat[s]`.
+pub(super) fn material_stage(
+    meta: &VertexBakeMeta,
+    scene: &Scene,
+    lights: &[GroupLight],
+    constants: &[ShadingConstants],
+    ehat: &[f32; SH_COUNT],
+    coeff: &[[f32; 3]],
+) -> Vec<GroupShade> {
+    let slot = |j: u32| coeff.get(j as usize).copied().unwrap_or([0.0; 3]);
+    let ci: Vec<[f32; 3]> = meta.t2_slots.iter().map(|&i| slot(i)).collect();
+    let n_i = ci.len();
+    let pi = std::f32::consts::PI;
+    let mut out = Vec::with_capacity(meta.groups.len());
+    for ((gm, layout), light) in meta.groups.iter().zip(&scene.groups).zip(lights) {
+        let cj: Vec<[f32; 3]> = gm.active.iter().map(|&j| slot(j)).collect();
+        let nj = cj.len();
+        let consts = gm.shading.map(|b| &constants[b as usize]);
+        let rank = consts.map_or(0, |c| c.rank);
+        let stride = U_AT + 3 * rank;
+        let rows = layout.rows;
+        let nv = layout.vertices.len();
+        let mut data = vec![0.0f32; nv * stride];
+        data.par_chunks_mut(stride)
+            .enumerate()
+            .with_min_len(64)
+            .for_each(|(v, rec)| {
+                // I1[s] = sum_j c_j L1[j][s].
+                let l1 = &light.l1[v * nj * SH_COUNT * 3..][..nj * SH_COUNT * 3];
+                let mut i1 = [[0.0f32; 3]; SH_COUNT];
+                for (lj, c) in l1.chunks_exact(SH_COUNT * 3).zip(&cj) {
+                    for (acc, x) in i1.iter_mut().zip(lj.chunks_exact(3)) {
+                        acc[0] += c[0] * x[0];
+                        acc[1] += c[1] * x[1];
+                        acc[2] += c[2] * x[2];
+                    }
+                }
+                // I2 = sum_(j,i) c_j c_i L2[j][i].
+                let mut i2 = [0.0f32; 3];
+                if !light.l2.is_empty() {
+                    let l2 = &light.l2[v * nj * n_i * 3..][..nj * n_i * 3];
+                    for (lj, a) in l2.chunks_exact((n_i * 3).max(1)).zip(&cj) {
+                        for (x, b) in lj.chunks_exact(3).zip(&ci) {
+                            for ch in 0..3 {
+                                i2[ch] += a[ch] * b[ch] * x[ch];
+                            }
+                        }
+                    }
+                }
+                let t0 = &light.t0dot[v * rows..][..rows];
+                // E = T0dot[last] + sum_s Ehat[s] I1[s] + pi I2.
+                let mut e = t0[rows - 1];
+                for (x, &h) in i1.iter().zip(ehat) {
+                    for ch in 0..3 {
+                        e[ch] += h * x[ch];
+                    }
+                }
+                for ch in 0..3 {
+                    e[ch] += pi * i2[ch];
+                }
+                rec[E_AT..E_AT + 3].copy_from_slice(&e);
+                rec[I2_AT..I2_AT + 3].copy_from_slice(&i2);
+                for (s, x) in i1.iter().enumerate() {
+                    rec[I1_AT + 3 * s..I1_AT + 3 * s + 3].copy_from_slice(x);
+                }
+                // U[c] = T0dot[c] + sum_s Cwi[s][c] I1[s] + Cconst[c] I2.
+                if let Some(k) = consts {
+                    for c in 0..rank {
+                        let mut u = t0[c];
+                        for (s, x) in i1.iter().enumerate() {
+                            let w = k.cwi[s * rank + c];
+                            for ch in 0..3 {
+                                u[ch] += w * x[ch];
+                            }
+                        }
+                        for ch in 0..3 {
+                            u[ch] += k.cconst[c] * i2[ch];
+                        }
+                        rec[U_AT + 3 * c..U_AT + 3 * c + 3].copy_from_slice(&u);
+                    }
+                }
+            });
+        out.push(GroupShade { stride, rank, data });
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gray_and_rgb_contractions_weigh_each_bin_by_its_light() {
+        // Two bins, two elements.
+        let c = [[1.0, 2.0, 3.0], [10.0, 20.0, 30.0]];
+        let gray = [1.0f32, 2.0, 3.0, 4.0];
+        let mut acc = vec![0.0; 6];
+        contract_bins(&gray, 2, true, &c, &mut acc);
+        // Channel-major: element 0: 1*c0 + 3*c1, element 1: 2*c0 + 4*c1.
+        assert_eq!(acc, [31.0, 42.0, 62.0, 84.0, 93.0, 126.0]);
+        let rgb = [
+            1.0f32, 1.0, 1.0, 2.0, 2.0, 2.0, 0.5, 0.0, 0.0, 0.0, 0.0, 1.0,
+        ];
+        let mut acc = vec![0.0; 6];
+        contract_bins(&rgb, 6, false, &c, &mut acc);
+        assert_eq!(acc, [6.0, 2.0, 3.0, 2.0, 4.0, 36.0]);
+    }
+
+    #[test]
+    fn f16_blocks_convert_like_single_values() {
+        let h: Vec<f16> = (0..40)
+            .map(|i| f16::from_f32(i as f32 * 0.37 - 3.0))
+            .collect();
+        let v = Values::F16(&h);
+        let mut scratch = Vec::new();
+        let b = v.block(3, 30, &mut scratch).to_vec();
+        for (k, x) in b.iter().enumerate() {
+            assert_eq!(*x, v.get(3 + k));
+        }
+    }
+}

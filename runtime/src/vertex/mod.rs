@@ -1,0 +1,545 @@
+//! Per-vertex relighting (docs/vertex.md, sections 1, 3 and 4; thesis ch. 5): a per-vertex
+//! bake rendered for any environment (a new lat-long map, or a rotation of the current one),
+//! any camera and any material parameters, without tracing a ray.
+//!
+//! A frame runs three stages, each cached until what it depends on changes:
+//!
+//! | stage | runs when | work |
+//! | --- | --- | --- |
+//! | light | the environment or its rotation changes | light coefficients (cube map, Haar C0, coarse cubes C1 and C2, prefiltered cubes), then per vertex T0's sparse dots, `C1 . T1` (the big one) and `C2 . T2` (`incident.rs`) |
+//! | material | a material parameter changes (or the light stage ran) | per vertex: the light-contracted T1, T2 with the slot coefficients, then the irradiance `E` and the incident projections `U` (`incident.rs`, constants in `constants.rs`) |
+//! | view | every frame | rasterize, interpolate the vertex records, shade each pixel's last reflection (`shade.rs`) |
+//!
+//! So a view-only change re-runs the view stage, a material change the material and view
+//! stages, a light change all three; the image is the same bit for bit either way, and on any
+//! number of threads (every vertex and every pixel is computed on its own, in a fixed order
+//! of operations).
+//!
+//! Opening validates the whole file (`open.rs`); a per-pixel bake is refused with
+//! [`RuntimeError::WrongKind`]. A camera is refused when its frame is not finite, its field of
+//! view is not in (0, 180) degrees ([`RuntimeError::Raster`]) or its eye is inside an object
+//! (the baker's rule, [`crate::raster::eye_verdict`]; [`RuntimeError::EyeInside`]).
+//!
+//! Surfaces are seen from the side of their vertex normals only: the baker stores the light
+//! arriving on that side, so a pixel looking at the other side (or at a silhouette where the
+//! interpolated normal turns away from the eye) is black.
+
+mod constants;
+mod incident;
+mod open;
+mod shade;
+
+use std::time::Instant;
+
+use prt_formats::envmap::{EnvMapReport, LatLongMap};
+use prt_formats::lighting::cubemap::rotation_y;
+use prt_formats::lighting::{prefilter, LightingError};
+use prt_formats::overrides::MaterialOverride;
+use prt_formats::pixel::MaterialParams;
+use prt_formats::vertex::VertexBakeMeta;
+use prt_formats::view::CameraFrame;
+use prt_formats::BakeFile;
+use rayon::prelude::*;
+
+use crate::light::LightCoefficients;
+use crate::materials::Materials;
+use crate::raster::{eye_verdict, Rasterizer, ViewRays, VisibilityBuffer};
+use crate::RuntimeError;
+use constants::ShadingConstants;
+use incident::{GroupLight, GroupShade, E_AT, I1_AT, I2_AT, U_AT};
+use open::{Scene, NO_GROUP};
+use shade::{Environment, Lobe, Prefiltered, ViewInputs, Width};
+
+/// What a [`VertexRelighter::render`] cost, per stage (wall-clock seconds; `None` when the
+/// stage's cached result was reused).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RenderStats {
+    /// The light stage, when it ran.
+    pub light_s: Option<f64>,
+    /// The material stage, when it ran.
+    pub material_s: Option<f64>,
+    /// The view stage (rasterization and shading).
+    pub view_s: f64,
+    /// Whether a lobe parameter lay outside its basis' sampled range (and was clamped to it).
+    pub clamped: bool,
+}
+
+/// The light arriving at one vertex for the current environment and materials, in the
+/// vertex's frame (`prt_formats::vertex::vertex_frame`), RGB.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VertexIncident {
+    /// The group (material) the vertex belongs to.
+    pub group: usize,
+    /// `E`: the irradiance, `integral I (w . n)+ dw`.
+    pub irradiance: [f32; 3],
+    /// `I1[s]`: the SH coefficients (order 4) of the light after one reflection.
+    pub one_bounce_sh: [[f32; 3]; 16],
+    /// `I2`: the uniform radiance with the irradiance of the light after two reflections.
+    pub two_bounce: [f32; 3],
+    /// `U[c] = integral I U^i(w_local, c) (w . n)+ dw` for the rows of the material's shading
+    /// basis (empty for a material without a lobe).
+    pub incident: Vec<[f32; 3]>,
+}
+
+/// The light stage's results.
+struct LightState {
+    coefficients: LightCoefficients,
+    groups: Vec<GroupLight>,
+}
+
+/// The material stage's results.
+struct ShadeState {
+    groups: Vec<GroupShade>,
+    /// Per material, its lobe at the current parameter.
+    lobes: Vec<Option<Lobe>>,
+    clamped: bool,
+}
+
+/// An opened per-vertex bake with the current environment and materials (see the module
+/// documentation).
+pub struct VertexRelighter {
+    file: BakeFile,
+    meta: VertexBakeMeta,
+    scene: Scene,
+    /// Per shading basis.
+    constants: Vec<ShadingConstants>,
+    ehat: [f32; 16],
+    /// Per shading basis, its split widths as the view stage reads them.
+    widths: Vec<Vec<Width>>,
+    /// The nonzero split widths of all bases (degrees, ascending): the light's prefilters.
+    prefilter_widths: Vec<f64>,
+    materials: Materials,
+    environment: LatLongMap,
+    rotation_deg: f32,
+    light: Option<LightState>,
+    shaded: Option<ShadeState>,
+    rasterizer: Rasterizer,
+    visibility: VisibilityBuffer,
+    /// The last eye that passed the inside-geometry check.
+    eye_checked: Option<[f32; 3]>,
+}
+
+impl VertexRelighter {
+    /// Opens and validates a per-vertex bake file (checksums verified). A per-pixel bake is
+    /// refused with [`RuntimeError::WrongKind`].
+    pub fn open(path: impl AsRef<std::path::Path>) -> Result<VertexRelighter, RuntimeError> {
+        VertexRelighter::from_file(BakeFile::open(path)?)
+    }
+
+    /// Validates an opened bake file as a per-vertex bake (see [`VertexRelighter::open`]).
+    /// The environment is the one baked with, the materials their baked parameters.
+    pub fn from_file(file: BakeFile) -> Result<VertexRelighter, RuntimeError> {
+        let (meta, scene) = open::validate(&file)?;
+        let path = file.path().display().to_string();
+        let schema = |reason: String| RuntimeError::VertexSchema {
+            path: path.clone(),
+            reason,
+        };
+        let materials = Materials::new(&meta.materials, &meta.bases).map_err(&schema)?;
+        let constants = scene.shading.iter().map(ShadingConstants::new).collect();
+        let mut prefilter_widths: Vec<f64> = scene
+            .shading
+            .iter()
+            .flat_map(|b| b.split_widths_deg.iter())
+            .filter(|&&w| w != 0.0)
+            .map(|&w| f64::from(w))
+            .collect();
+        prefilter_widths.sort_by(f64::total_cmp);
+        prefilter_widths.dedup();
+        let mut widths = Vec::with_capacity(scene.shading.len());
+        for b in &scene.shading {
+            let mut ws = Vec::with_capacity(b.split_widths_deg.len());
+            for &w in &b.split_widths_deg {
+                let (lookup, sh_factors) = if w == 0.0 {
+                    (Prefiltered::Environment, [1.0; 4])
+                } else {
+                    let sigma = f64::from(w).to_radians();
+                    let f = prefilter::sh_factors(sigma)?;
+                    let k = prefilter::kernel_integral(sigma)?;
+                    let i = prefilter_widths
+                        .iter()
+                        .position(|&x| x == f64::from(w))
+                        .unwrap_or(usize::MAX);
+                    (Prefiltered::Cube(i), f.map(|x| (x / k) as f32))
+                };
+                ws.push(Width {
+                    degrees: w,
+                    lookup,
+                    sh_factors,
+                });
+            }
+            widths.push(ws);
+        }
+        let (environment, rotation_deg) = scene.environment.clone();
+        Ok(VertexRelighter {
+            file,
+            meta,
+            scene,
+            constants,
+            ehat: constants::irradiance_sh(),
+            widths,
+            prefilter_widths,
+            materials,
+            environment,
+            rotation_deg,
+            light: None,
+            shaded: None,
+            rasterizer: Rasterizer::new(),
+            visibility: VisibilityBuffer {
+                width: 0,
+                height: 0,
+                near: 0.0,
+                fragments: Vec::new(),
+            },
+            eye_checked: None,
+        })
+    }
+
+    /// The bake's per-vertex metadata (materials, groups, the baked environment and camera).
+    pub fn meta(&self) -> &VertexBakeMeta {
+        &self.meta
+    }
+
+    /// The camera the scene was baked with, as a frame (right = forward x up).
+    pub fn default_camera(&self) -> CameraFrame {
+        let c = &self.meta.camera;
+        let (f, u) = (c.forward, c.up);
+        let r = [
+            f[1] * u[2] - f[2] * u[1],
+            f[2] * u[0] - f[0] * u[2],
+            f[0] * u[1] - f[1] * u[0],
+        ];
+        let len = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt();
+        CameraFrame {
+            position: c.position,
+            forward: f,
+            right: r.map(|x| x / len),
+            up: u,
+            yfov: c.yfov,
+        }
+    }
+
+    /// The current environment map and its rotation about +Y (degrees).
+    pub fn environment(&self) -> (&LatLongMap, f32) {
+        (&self.environment, self.rotation_deg)
+    }
+
+    /// Lights the scene with `map` turned `rotation_deg` degrees about +Y (the right-hand
+    /// rule, docs/conventions.md). The light stage runs at the next render.
+    pub fn set_environment(
+        &mut self,
+        map: LatLongMap,
+        rotation_deg: f32,
+    ) -> Result<(), RuntimeError> {
+        check_rotation(rotation_deg)?;
+        self.environment = map;
+        self.rotation_deg = rotation_deg;
+        self.light = None;
+        Ok(())
+    }
+
+    /// [`VertexRelighter::set_environment`] from texels in memory (`width x height`, row-major,
+    /// top row first, linear RGB), checked as `prt_formats::envmap::LatLongMap::new` checks
+    /// them: NaN or infinite texels are refused, negative channels clamped to 0 (counted in
+    /// the report).
+    pub fn set_environment_latlong(
+        &mut self,
+        width: usize,
+        height: usize,
+        texels: Vec<[f32; 3]>,
+        rotation_deg: f32,
+    ) -> Result<EnvMapReport, RuntimeError> {
+        check_rotation(rotation_deg)?;
+        let (map, report) = LatLongMap::new(width, height, texels, 1.0)?;
+        self.set_environment(map, rotation_deg)?;
+        Ok(report)
+    }
+
+    /// Turns the current environment to `rotation_deg` degrees about +Y (absolute, not added
+    /// to the current rotation). The light stage runs at the next render unless the rotation
+    /// is unchanged.
+    pub fn set_environment_rotation(&mut self, rotation_deg: f32) -> Result<(), RuntimeError> {
+        check_rotation(rotation_deg)?;
+        if rotation_deg != self.rotation_deg {
+            self.rotation_deg = rotation_deg;
+            self.light = None;
+        }
+        Ok(())
+    }
+
+    /// Current parameters of material `name`.
+    pub fn params(&self, name: &str) -> Result<MaterialParams, RuntimeError> {
+        self.materials.params(name)
+    }
+
+    /// Applies one `--set MATERIAL.PARAM=VALUE` edit, by the per-pixel runtime's rules.
+    pub fn apply(&mut self, o: &MaterialOverride) -> Result<(), RuntimeError> {
+        self.materials.apply(o)?;
+        self.shaded = None;
+        Ok(())
+    }
+
+    /// Sets all parameters of the editable material `name` (colours finite and >= 0, the
+    /// lobe parameter finite; it is clamped to the bases' sampled ranges when used).
+    pub fn set_params(&mut self, name: &str, p: MaterialParams) -> Result<(), RuntimeError> {
+        self.materials.set(name, p)?;
+        self.shaded = None;
+        Ok(())
+    }
+
+    /// RGB coefficient of every global slot for the current parameters, and whether any
+    /// parameter lay outside its basis' sampled range (and was clamped).
+    pub fn coefficients(&self) -> (Vec<[f32; 3]>, bool) {
+        self.materials.coefficients()
+    }
+
+    /// The light arriving at mesh vertex `vertex` for the current environment and materials
+    /// (running the light and material stages if needed); `None` for a vertex out of range or
+    /// in no group.
+    pub fn vertex_incident(
+        &mut self,
+        vertex: usize,
+    ) -> Result<Option<VertexIncident>, RuntimeError> {
+        self.ensure_light()?;
+        self.ensure_shaded();
+        let Some(&(g, local)) = self.scene.vertex_group.get(vertex) else {
+            return Ok(None);
+        };
+        let Some(shaded) = &self.shaded else {
+            return Ok(None);
+        };
+        if g == NO_GROUP {
+            return Ok(None);
+        }
+        let shade = &shaded.groups[g as usize];
+        let rec = &shade.data[local as usize * shade.stride..][..shade.stride];
+        let rgb = |at: usize| [rec[at], rec[at + 1], rec[at + 2]];
+        Ok(Some(VertexIncident {
+            group: g as usize,
+            irradiance: rgb(E_AT),
+            one_bounce_sh: std::array::from_fn(|s| rgb(I1_AT + 3 * s)),
+            two_bounce: rgb(I2_AT),
+            incident: (0..shade.rank).map(|c| rgb(U_AT + 3 * c)).collect(),
+        }))
+    }
+
+    /// Renders the view of `camera` at `width x height` into `out` (RGB f32, rows top first,
+    /// `3 width height` floats), running the stages whose inputs changed (see the module
+    /// documentation). Nothing is written to `out` on error.
+    pub fn render(
+        &mut self,
+        camera: &CameraFrame,
+        width: u32,
+        height: u32,
+        out: &mut [f32],
+    ) -> Result<RenderStats, RuntimeError> {
+        let rays = ViewRays::new(camera, width, height)?;
+        let expected = 3 * width as usize * height as usize;
+        if out.len() != expected {
+            return Err(RuntimeError::OutputSize {
+                width,
+                height,
+                expected,
+                got: out.len(),
+            });
+        }
+        self.check_eye(camera.position)?;
+        let light_s = self.ensure_light()?;
+        let material_s = self.ensure_shaded();
+        let start = Instant::now();
+        self.rasterizer.render(
+            &self.scene.positions,
+            &self.scene.triangles,
+            camera,
+            width,
+            height,
+            &mut self.visibility,
+        )?;
+        let (Some(light), Some(shaded)) = (&self.light, &self.shaded) else {
+            // Both were just made.
+            return Err(RuntimeError::VertexSchema {
+                path: self.file.path().display().to_string(),
+                reason: "the light or material stage has no result".into(),
+            });
+        };
+        let path = self.file.path().display().to_string();
+        for (b, ws) in self.widths.iter().enumerate() {
+            for w in ws {
+                if let Prefiltered::Cube(i) = w.lookup {
+                    if light.coefficients.widths_deg.get(i) != Some(&f64::from(w.degrees)) {
+                        return Err(RuntimeError::VertexSchema {
+                            path,
+                            reason: format!(
+                                "shading basis {b}: split width {} degrees does not match the \
+                                 light's prefiltered widths {:?}",
+                                w.degrees, light.coefficients.widths_deg
+                            ),
+                        });
+                    }
+                }
+            }
+        }
+        let mut visibility = Vec::with_capacity(self.meta.groups.len());
+        for g in 0..self.meta.groups.len() {
+            let name = prt_formats::vertex::names::visibility(g);
+            visibility.push(self.file.tensor(&name)?.as_u8()?);
+        }
+        let textures = self
+            .meta
+            .material_textures
+            .iter()
+            .map(|t| t.map(|t| &self.scene.textures[t as usize]))
+            .collect();
+        let inputs = ViewInputs {
+            scene: &self.scene,
+            shades: &shaded.groups,
+            visibility,
+            params: self.materials.all(),
+            lobes: &shaded.lobes,
+            widths: &self.widths,
+            textures,
+            light: &light.coefficients,
+            environment: Environment {
+                map: &self.environment,
+                back: rotation_y(-f64::from(self.rotation_deg)),
+            },
+            eye: camera.position,
+        };
+        shade::view_stage(&inputs, &rays, &self.visibility, out);
+        Ok(RenderStats {
+            light_s,
+            material_s,
+            view_s: start.elapsed().as_secs_f64(),
+            clamped: shaded.clamped,
+        })
+    }
+
+    /// Refuses an eye inside an object (checked once per eye position).
+    fn check_eye(&mut self, eye: [f32; 3]) -> Result<(), RuntimeError> {
+        if self.eye_checked == Some(eye) {
+            return Ok(());
+        }
+        let s = &self.scene;
+        let verdict = eye_verdict(
+            &s.positions,
+            &s.normals,
+            &s.triangles,
+            &s.triangle_material,
+            eye,
+        )?;
+        if verdict.inside {
+            let material = verdict
+                .material
+                .and_then(|m| self.meta.materials.get(m))
+                .map_or_else(|| "an object".to_string(), |m| m.name.clone());
+            return Err(RuntimeError::EyeInside {
+                eye,
+                material,
+                back: verdict.back,
+                total: verdict.total,
+            });
+        }
+        self.eye_checked = Some(eye);
+        Ok(())
+    }
+
+    /// Runs the light stage unless its result is current; its time when it ran.
+    fn ensure_light(&mut self) -> Result<Option<f64>, RuntimeError> {
+        if self.light.is_some() {
+            return Ok(None);
+        }
+        let start = Instant::now();
+        let coefficients =
+            light_coefficients(&self.environment, self.rotation_deg, &self.prefilter_widths)?;
+        let groups = incident::light_stage(&self.file, &self.meta, &self.scene, &coefficients)?;
+        self.light = Some(LightState {
+            coefficients,
+            groups,
+        });
+        self.shaded = None;
+        Ok(Some(start.elapsed().as_secs_f64()))
+    }
+
+    /// Runs the material stage unless its result is current (the light stage must have run);
+    /// its time when it ran.
+    fn ensure_shaded(&mut self) -> Option<f64> {
+        if self.shaded.is_some() {
+            return None;
+        }
+        let light = self.light.as_ref()?;
+        let start = Instant::now();
+        let (coeff, mut clamped) = self.materials.coefficients();
+        let groups = incident::material_stage(
+            &self.meta,
+            &self.scene,
+            &light.groups,
+            &self.constants,
+            &self.ehat,
+            &coeff,
+        );
+        let params = self.materials.all();
+        let mut lobes = Vec::with_capacity(params.len());
+        for (m, p) in params.iter().enumerate() {
+            let basis = self.scene.material_group[m]
+                .and_then(|g| self.meta.groups[g as usize].shading)
+                .map(|b| b as usize);
+            lobes.push(basis.map(|b| {
+                let sb = &self.scene.shading[b];
+                let mut uh = [0.0f32; prt_formats::basis::MAX_SHADING_RANK];
+                clamped |= sb.u_h_row(p.param, &mut uh);
+                let mut core = vec![0.0f32; sb.ranks.o * sb.ranks.i];
+                sb.contract_core(&uh, &mut core);
+                Lobe {
+                    basis: b,
+                    core,
+                    param: p.param,
+                }
+            }));
+        }
+        self.shaded = Some(ShadeState {
+            groups,
+            lobes,
+            clamped,
+        });
+        Some(start.elapsed().as_secs_f64())
+    }
+}
+
+fn check_rotation(rotation_deg: f32) -> Result<(), RuntimeError> {
+    if rotation_deg.is_finite() {
+        return Ok(());
+    }
+    Err(RuntimeError::Lighting(LightingError::InvalidParameter {
+        what: "environment rotation (degrees)",
+        expected: "a finite number",
+        value: f64::from(rotation_deg),
+    }))
+}
+
+/// The light coefficients of `map` turned `rotation_deg`, with the prefiltered cubes of
+/// `widths` (nonzero, degrees) computed in parallel (each is `crate::light`'s own).
+fn light_coefficients(
+    map: &LatLongMap,
+    rotation_deg: f32,
+    widths: &[f64],
+) -> Result<LightCoefficients, LightingError> {
+    let mut base = LightCoefficients::from_latlong(map, f64::from(rotation_deg), &[])?;
+    let prefiltered = widths
+        .par_iter()
+        .map(|&w| {
+            let one = LightCoefficients::from_cube(base.cube.clone(), &[w])?;
+            let got = one.prefiltered.len();
+            one.prefiltered
+                .into_iter()
+                .next()
+                .ok_or(LightingError::LengthMismatch {
+                    what: "prefiltered cubes for one width",
+                    expected: 1,
+                    got,
+                })
+        })
+        .collect::<Result<Vec<_>, LightingError>>()?;
+    base.widths_deg = widths.to_vec();
+    base.prefiltered = prefiltered;
+    Ok(base)
+}

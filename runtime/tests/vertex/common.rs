@@ -1,0 +1,583 @@
+//! Synthetic per-vertex bake files written with the container writer alone (no baker): a
+//! mesh, materials, groups whose tensors the tests fill in from definitions, and helpers that
+//! compute what the runtime should give independently of it.
+
+use std::path::Path;
+
+use half::f16;
+use prt_formats::basis::{HemiGrid, ParamWarp, ShadingBasis, TuckerRanks, SHADING_SCHEMA_VERSION};
+use prt_formats::lighting::cubemap::{face_solid_angles, texel_centre_direction};
+use prt_formats::lighting::{Face, HaarCube};
+use prt_formats::pixel::{CameraMeta, MaterialMeta, Precision, SlotKind};
+use prt_formats::vertex::{
+    cube_len, names, shading_tables, to_local, vertex_frame, EnvironmentMeta, ShadingMeta,
+    TextureMeta, VertexBakeMeta, VertexBakeStats, VertexGroupMeta, DIRECT_CUBE, SH_TERMS,
+    T1_LIGHT_CUBE, T2_LIGHT_CUBE, VERTEX_SCHEMA_VERSION, VISIBILITY_CUBE,
+};
+use prt_formats::view::{CameraFrame, CameraSpec};
+use prt_formats::{BakeWriter, Family};
+
+/// A triangle mesh.
+#[derive(Clone, Debug, Default)]
+pub struct Mesh {
+    pub positions: Vec<[f32; 3]>,
+    pub normals: Vec<[f32; 3]>,
+    pub uvs: Vec<[f32; 2]>,
+    pub triangles: Vec<[u32; 3]>,
+    pub triangle_material: Vec<u32>,
+}
+
+impl Mesh {
+    /// An `n x n`-vertex grid over the square `[-1, 1]^2` of the plane through the origin
+    /// with normal `normal` (one of +Y or +Z), material `material`.
+    pub fn grid(n: usize, normal: [f32; 3], material: u32) -> Mesh {
+        let mut m = Mesh::default();
+        for r in 0..n {
+            for c in 0..n {
+                let a = -1.0 + 2.0 * c as f32 / (n - 1) as f32;
+                let b = -1.0 + 2.0 * r as f32 / (n - 1) as f32;
+                m.positions.push(if normal[1] > 0.5 {
+                    [a, 0.0, b]
+                } else {
+                    [a, b, 0.0]
+                });
+                m.normals.push(normal);
+                m.uvs.push([(a + 1.0) / 2.0, (b + 1.0) / 2.0]);
+            }
+        }
+        for r in 0..n - 1 {
+            for c in 0..n - 1 {
+                let i = (r * n + c) as u32;
+                let n = n as u32;
+                m.triangles.push([i, i + 1, i + n + 1]);
+                m.triangles.push([i, i + n + 1, i + n]);
+                m.triangle_material.extend([material, material]);
+            }
+        }
+        m
+    }
+
+    /// The quad `[-1, 1]^2` facing `normal` (+Y or +Z): 4 vertices, 2 triangles.
+    pub fn quad(normal: [f32; 3], material: u32) -> Mesh {
+        Mesh::grid(2, normal, material)
+    }
+
+    /// A closed axis-aligned box `[-1, 1]^3`, normals outwards, 4 vertices per face.
+    pub fn closed_box(material: u32) -> Mesh {
+        let mut m = Mesh::default();
+        for axis in 0..3 {
+            for sign in [-1.0f32, 1.0] {
+                let mut n = [0.0f32; 3];
+                n[axis] = sign;
+                let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+                let base = m.positions.len() as u32;
+                for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+                    let mut p = [0.0f32; 3];
+                    p[axis] = sign;
+                    p[u] = a;
+                    p[v] = b;
+                    m.positions.push(p);
+                    m.normals.push(n);
+                    m.uvs.push([0.0, 0.0]);
+                }
+                m.triangles.push([base, base + 1, base + 2]);
+                m.triangles.push([base, base + 2, base + 3]);
+                m.triangle_material.extend([material, material]);
+            }
+        }
+        m
+    }
+}
+
+/// One group's data as stored (values before the group's scales).
+#[derive(Clone, Debug)]
+pub struct Group {
+    pub vertices: Vec<u32>,
+    /// `[V_g, rows, terms]`.
+    pub t0_index: Vec<u16>,
+    pub t0_value: Vec<f32>,
+    pub t0_shape: [usize; 3],
+    /// `[V_g, 1536]`.
+    pub visibility: Vec<u8>,
+    /// `[V_g, 384, J, 16, channels]`.
+    pub t1: Vec<f32>,
+    pub t1_shape: [usize; 5],
+    /// `[V_g, 24, J, I, channels]` (reflections = 3).
+    pub t2: Vec<f32>,
+    pub t2_shape: [usize; 5],
+}
+
+impl Group {
+    /// A group of `vertices` with zero T1 and T2 of `j` active slots, `i` T2 slots and
+    /// `channels` channels, all texels visible, and T0 rows given per vertex
+    /// (`rows x terms` Haar coefficients each, indices `0..terms`).
+    pub fn new(
+        vertices: Vec<u32>,
+        t0_rows: &[Vec<Vec<f32>>],
+        j: usize,
+        i: usize,
+        channels: usize,
+    ) -> Group {
+        let nv = vertices.len();
+        let rows = t0_rows.first().map_or(1, |r| r.len());
+        let terms = t0_rows
+            .first()
+            .and_then(|r| r.first())
+            .map_or(1, |t| t.len());
+        let mut t0_index = Vec::with_capacity(nv * rows * terms);
+        let mut t0_value = Vec::with_capacity(nv * rows * terms);
+        for v in t0_rows {
+            for row in v {
+                t0_index.extend((0..terms).map(|t| t as u16));
+                t0_value.extend(row);
+            }
+        }
+        let t1_shape = [nv, cube_len(T1_LIGHT_CUBE), j, SH_TERMS, channels];
+        let t2_shape = [nv, cube_len(T2_LIGHT_CUBE), j, i, channels];
+        Group {
+            vertices,
+            t0_index,
+            t0_value,
+            t0_shape: [nv, rows, terms],
+            visibility: vec![255; nv * cube_len(VISIBILITY_CUBE)],
+            t1: vec![0.0; t1_shape.iter().product()],
+            t1_shape,
+            t2: vec![0.0; t2_shape.iter().product()],
+            t2_shape,
+        }
+    }
+}
+
+/// A synthetic per-vertex bake.
+#[derive(Clone, Debug)]
+pub struct Bake {
+    pub meta: VertexBakeMeta,
+    pub mesh: Mesh,
+    pub groups: Vec<Group>,
+    /// Full shading bases (tables included); the metadata's copies are emptied on writing.
+    pub shading: Vec<ShadingBasis>,
+    /// `[h, w, 3]` flat, one per `meta.textures`.
+    pub textures: Vec<Vec<f32>>,
+    /// `[h, w, 3]` flat when `meta.environment` is a lat-long map.
+    pub environment: Vec<f32>,
+    /// Store T1 in this precision whatever the metadata says.
+    pub t1_stored_as: Option<Precision>,
+}
+
+/// A material with a Kd slot (and a fixed lobe slot for a glossy family).
+pub fn material(
+    name: &str,
+    family: Family,
+    kd: [f32; 3],
+    ks: [f32; 3],
+    param: f32,
+) -> MaterialMeta {
+    let slots = if family == Family::Diffuse {
+        vec![SlotKind::Kd]
+    } else {
+        vec![SlotKind::Kd, SlotKind::Lobe]
+    };
+    MaterialMeta {
+        name: name.to_string(),
+        editable: true,
+        family,
+        kd,
+        ks,
+        param,
+        textured: false,
+        slots,
+        slot_offset: 0,
+        basis: None,
+    }
+}
+
+/// Numbers the materials' slots globally.
+pub fn number_slots(materials: &mut [MaterialMeta]) {
+    let mut offset = 0;
+    for m in materials {
+        m.slot_offset = offset;
+        offset += m.slots.len() as u32;
+    }
+}
+
+/// A GGX shading basis with constant rows: residual `a` (1/sr) for every direction and
+/// parameter, split widths 0, 7, 14, 21 degrees with reflectances `r` (also constant), so its
+/// albedo under a constant environment is `pi a + sum r`. `u_o` is `wo.z` at the nodes
+/// (the pole row 1) when `view_dependent`.
+pub fn constant_basis(a: f32, r: [f32; 4], view_dependent: bool) -> ShadingBasis {
+    let dirs = HemiGrid {
+        n_theta: 8,
+        n_phi: 16,
+    };
+    let nd = dirs.len();
+    let params = vec![0.05f32, 0.5, 1.0];
+    let np = params.len();
+    let u_o = if view_dependent {
+        (0..nd).map(|n| dirs.dir(n)[2] as f32).collect()
+    } else {
+        vec![1.0; nd]
+    };
+    ShadingBasis {
+        version: SHADING_SCHEMA_VERSION,
+        family: Family::Ggx,
+        method: "test: constant rows".into(),
+        param_range: [0.05, 1.0],
+        param_warp: ParamWarp::Linear,
+        param_samples: params,
+        dirs,
+        ranks: TuckerRanks { h: 1, o: 1, i: 1 },
+        u_h: vec![a; np],
+        u_o,
+        u_o_pole: vec![1.0],
+        u_i: vec![1.0; nd],
+        u_i_pole: vec![1.0],
+        core: vec![1.0],
+        split_widths_deg: vec![0.0, 7.0, 14.0, 21.0],
+        reflectances: (0..np * nd).flat_map(|_| r).collect(),
+        reflectances_pole: (0..np).flat_map(|_| r).collect(),
+    }
+}
+
+/// `(direction, solid angle)` of every texel of the 6x64x64 cube, in storage order.
+pub fn direct_texels() -> Vec<([f64; 3], f64)> {
+    let omega = face_solid_angles(DIRECT_CUBE);
+    let mut out = Vec::with_capacity(cube_len(DIRECT_CUBE));
+    for face in Face::ALL {
+        for j in 0..DIRECT_CUBE {
+            for i in 0..DIRECT_CUBE {
+                out.push((
+                    texel_centre_direction(DIRECT_CUBE, face, i, j),
+                    omega[j * DIRECT_CUBE + i],
+                ));
+            }
+        }
+    }
+    out
+}
+
+/// T0 rows of an unoccluded vertex with normal `n`, from the definition: `U^i(w_local, k)
+/// (w . n)+` for the basis' rows, then `(w . n)+`, at the 64-cube's texel centres,
+/// area-weighted Haar transformed, every term kept.
+pub fn t0_rows(n: [f32; 3], basis: Option<&ShadingBasis>) -> Vec<Vec<f32>> {
+    let haar = HaarCube::new(DIRECT_CUBE).expect("haar");
+    let (t, b) = vertex_frame(n);
+    let texels = direct_texels();
+    let rank = basis.map_or(0, |b| b.ranks.i);
+    let mut rows = vec![vec![0.0f64; texels.len()]; rank + 1];
+    let mut ui = [0.0f32; 32];
+    for (k, (d, _)) in texels.iter().enumerate() {
+        let d32 = d.map(|c| c as f32);
+        let cos = (d32[0] * n[0] + d32[1] * n[1] + d32[2] * n[2]).max(0.0) as f64;
+        if cos <= 0.0 {
+            continue;
+        }
+        if let Some(bs) = basis {
+            bs.u_i_row(to_local(t, b, n, d32), &mut ui);
+            for c in 0..rank {
+                rows[c][k] = ui[c] as f64 * cos;
+            }
+        }
+        rows[rank][k] = cos;
+    }
+    rows.iter()
+        .map(|r| {
+            haar.forward_f64(r)
+                .expect("haar")
+                .iter()
+                .map(|&x| x as f32)
+                .collect()
+        })
+        .collect()
+}
+
+/// `integral (w . n)+ dw` by the 64-cube's midpoint rule: the irradiance of a unit
+/// environment the T0 rows of [`t0_rows`] give.
+pub fn cube_cosine_integral(n: [f32; 3]) -> f64 {
+    direct_texels()
+        .iter()
+        .map(|(d, w)| (d[0] * n[0] as f64 + d[1] * n[1] as f64 + d[2] * n[2] as f64).max(0.0) * w)
+        .sum()
+}
+
+/// The camera looking at the origin from `eye`.
+pub fn camera(eye: [f32; 3], fov: f32) -> CameraFrame {
+    CameraSpec {
+        eye,
+        target: [0.0, 0.0, 0.0],
+        fov_deg: fov,
+    }
+    .frame()
+    .expect("camera")
+}
+
+impl Bake {
+    /// One group per material over the mesh's vertices of that material, materials as
+    /// given (slots numbered here), a constant environment, the tensors' scales 1.
+    pub fn new(
+        mesh: Mesh,
+        mut materials: Vec<MaterialMeta>,
+        groups: Vec<(u32, Group, Option<u32>)>,
+        shading: Vec<ShadingBasis>,
+        radiance: [f32; 3],
+    ) -> Bake {
+        number_slots(&mut materials);
+        let group_meta = groups
+            .iter()
+            .map(|(m, g, s)| VertexGroupMeta {
+                material: *m,
+                vertices: g.vertices.len() as u32,
+                t0_rows: g.t0_shape[1] as u32,
+                shading: *s,
+                active: (0..g.t1_shape[2] as u32).collect(),
+                scale_t0: 1.0,
+                scale_t1: 1.0,
+                scale_t2: 1.0,
+            })
+            .collect();
+        let n_i = groups.first().map_or(0, |g| g.1.t2_shape[3]);
+        let channels = groups.first().map_or(1, |g| g.1.t1_shape[4]) as u32;
+        let terms = groups.first().map_or(1, |g| g.1.t0_shape[2]) as u32;
+        let nm = materials.len();
+        Bake {
+            meta: VertexBakeMeta {
+                vertex_schema_version: VERTEX_SCHEMA_VERSION,
+                vertices: mesh.positions.len() as u32,
+                triangles: mesh.triangles.len() as u32,
+                samples: 1,
+                secondary: 1,
+                reflections: 2,
+                seed: 1,
+                channels,
+                precision: Precision::F32,
+                t0_terms: terms,
+                materials,
+                bases: Vec::new(),
+                shading: shading
+                    .iter()
+                    .map(|b| {
+                        let mut basis = b.clone();
+                        for (_, t) in prt_formats::vertex::shading_tables_mut(&mut basis) {
+                            t.clear();
+                        }
+                        ShadingMeta { basis }
+                    })
+                    .collect(),
+                textures: Vec::new(),
+                material_textures: vec![None; nm],
+                t2_slots: (0..n_i as u32).collect(),
+                groups: group_meta,
+                environment: EnvironmentMeta::Constant { radiance },
+                camera: CameraMeta {
+                    position: [0.0, 2.0, 2.0],
+                    forward: [
+                        0.0,
+                        -std::f32::consts::FRAC_1_SQRT_2,
+                        -std::f32::consts::FRAC_1_SQRT_2,
+                    ],
+                    up: [
+                        0.0,
+                        std::f32::consts::FRAC_1_SQRT_2,
+                        -std::f32::consts::FRAC_1_SQRT_2,
+                    ],
+                    yfov: 0.7,
+                },
+                stats: VertexBakeStats::default(),
+            },
+            mesh,
+            groups: groups.into_iter().map(|(_, g, _)| g).collect(),
+            shading,
+            textures: Vec::new(),
+            environment: Vec::new(),
+            t1_stored_as: None,
+        }
+    }
+
+    /// Lights the bake with a lat-long map (`[h, w, 3]` flat).
+    pub fn set_latlong(&mut self, width: usize, height: usize, texels: Vec<f32>, rotation: f32) {
+        self.meta.environment = EnvironmentMeta::LatLong {
+            width: width as u32,
+            height: height as u32,
+            rotation_deg: rotation,
+        };
+        self.environment = texels;
+    }
+
+    /// Gives material `m` a texture (`[h, w, 3]` flat).
+    pub fn set_texture(&mut self, m: usize, width: usize, height: usize, texels: Vec<f32>) {
+        self.meta.material_textures[m] = Some(self.textures.len() as u32);
+        self.meta.textures.push(TextureMeta {
+            width: width as u32,
+            height: height as u32,
+        });
+        self.textures.push(texels);
+    }
+
+    /// Writes the file. Stored values are the groups' as given (f16 when the metadata says
+    /// so); shapes are the data's own, so a corrupted metadata field stays corrupt.
+    pub fn write(&self, path: &Path) {
+        let halves = |v: &[f32]| -> Vec<f16> { v.iter().map(|&x| f16::from_f32(x)).collect() };
+        let precision = self.meta.precision;
+        let t1_precision = self.t1_stored_as.unwrap_or(precision);
+        let h16: Vec<[Vec<f16>; 3]> = self
+            .groups
+            .iter()
+            .map(|g| [halves(&g.t0_value), halves(&g.t1), halves(&g.t2)])
+            .collect();
+        let m = &self.mesh;
+        let flat3 = |v: &[[f32; 3]]| -> Vec<f32> { v.iter().flatten().copied().collect() };
+        let positions = flat3(&m.positions);
+        let normals = flat3(&m.normals);
+        let uvs: Vec<f32> = m.uvs.iter().flatten().copied().collect();
+        let tris: Vec<u32> = m.triangles.iter().flatten().copied().collect();
+        let nv = m.positions.len();
+        let nt = m.triangles.len();
+        let mut w = BakeWriter::new();
+        w.add_f32(names::POSITIONS, &[nv, 3], &positions)
+            .expect("positions");
+        w.add_f32(names::NORMALS, &[nv, 3], &normals)
+            .expect("normals");
+        w.add_f32(names::UVS, &[uvs.len() / 2, 2], &uvs)
+            .expect("uvs");
+        w.add_u32(names::TRIANGLES, &[nt, 3], &tris)
+            .expect("triangles");
+        w.add_u32(names::TRIANGLE_MATERIAL, &[nt], &m.triangle_material)
+            .expect("triangle materials");
+        for (g, (gd, h)) in self.groups.iter().zip(&h16).enumerate() {
+            w.add_u32(&names::vertices(g), &[gd.vertices.len()], &gd.vertices)
+                .expect("vertices");
+            w.add_u16(&names::t0_index(g), &gd.t0_shape, &gd.t0_index)
+                .expect("t0 index");
+            let add = |w: &mut BakeWriter<'_>,
+                       p: Precision,
+                       name: String,
+                       shape: &[usize],
+                       f: &[f32],
+                       h: &[f16]| {
+                match p {
+                    Precision::F32 => {
+                        w.add_tensor(&name, prt_formats::Dtype::F32, shape, f32_bytes(f))
+                    }
+                    Precision::F16 => {
+                        w.add_tensor(&name, prt_formats::Dtype::F16, shape, f16_bytes(h))
+                    }
+                }
+                .expect("values")
+            };
+            add(
+                &mut w,
+                precision,
+                names::t0_value(g),
+                &gd.t0_shape,
+                &gd.t0_value,
+                &h[0],
+            );
+            w.add_u8(
+                &names::visibility(g),
+                &[gd.vertices.len(), cube_len(VISIBILITY_CUBE)],
+                &gd.visibility,
+            )
+            .expect("visibility");
+            add(
+                &mut w,
+                t1_precision,
+                names::t1(g),
+                &gd.t1_shape,
+                &gd.t1,
+                &h[1],
+            );
+            if self.meta.reflections >= 3 {
+                add(&mut w, precision, names::t2(g), &gd.t2_shape, &gd.t2, &h[2]);
+            }
+        }
+        for (b, basis) in self.shading.iter().enumerate() {
+            for (table, data) in shading_tables(basis) {
+                w.add_f32(&names::shading_table(b, table), &[data.len()], data)
+                    .expect("shading table");
+            }
+        }
+        for (t, (tm, data)) in self.meta.textures.iter().zip(&self.textures).enumerate() {
+            w.add_f32(
+                &names::texture(t),
+                &[tm.height as usize, tm.width as usize, 3],
+                data,
+            )
+            .expect("texture");
+        }
+        if let EnvironmentMeta::LatLong { width, height, .. } = self.meta.environment {
+            w.add_f32(
+                names::ENVIRONMENT,
+                &[height as usize, width as usize, 3],
+                &self.environment,
+            )
+            .expect("environment");
+        }
+        w.set_metadata(serde_json::to_value(&self.meta).expect("metadata"));
+        w.write_atomic(path).expect("write synthetic vertex bake");
+    }
+}
+
+fn f32_bytes(v: &[f32]) -> Vec<u8> {
+    v.iter().flat_map(|x| x.to_le_bytes()).collect()
+}
+
+fn f16_bytes(v: &[f16]) -> Vec<u8> {
+    v.iter().flat_map(|x| x.to_le_bytes()).collect()
+}
+
+/// A lat-long map `[h, w, 3]` flat: dim sky, a bright warm patch towards -Z above the
+/// horizon and a blue one towards +X below it, so every rotation about +Y changes it.
+pub fn asymmetric_map(width: usize, height: usize) -> Vec<f32> {
+    let mut out = Vec::with_capacity(width * height * 3);
+    for y in 0..height {
+        for x in 0..width {
+            let (u, v) = (
+                (x as f32 + 0.5) / width as f32,
+                (y as f32 + 0.5) / height as f32,
+            );
+            let mut c = [0.2f32, 0.25, 0.3];
+            if (0.4..0.6).contains(&u) && (0.2..0.45).contains(&v) {
+                c = [6.0, 4.0, 1.5];
+            }
+            if (0.7..0.8).contains(&u) && (0.55..0.7).contains(&v) {
+                c = [0.5, 1.0, 5.0];
+            }
+            out.extend(c);
+        }
+    }
+    out
+}
+
+/// Renders and returns the RGB image.
+pub fn render(
+    r: &mut prt_runtime::vertex::VertexRelighter,
+    cam: &CameraFrame,
+    w: u32,
+    h: u32,
+) -> Vec<f32> {
+    let mut out = vec![0.0f32; 3 * (w * h) as usize];
+    r.render(cam, w, h, &mut out).expect("render");
+    out
+}
+
+/// Where pixel `(x, y)`'s ray meets the plane through the origin with normal `n`
+/// (`None` when behind the eye or parallel).
+pub fn hit_plane(
+    cam: &CameraFrame,
+    w: u32,
+    h: u32,
+    x: u32,
+    y: u32,
+    n: [f32; 3],
+) -> Option<[f64; 3]> {
+    let rays = prt_runtime::raster::ViewRays::new(cam, w, h).expect("rays");
+    let d = rays.pixel_direction(x, y).map(f64::from);
+    let e = cam.position.map(f64::from);
+    let n = n.map(f64::from);
+    let dn = d[0] * n[0] + d[1] * n[1] + d[2] * n[2];
+    let en = e[0] * n[0] + e[1] * n[1] + e[2] * n[2];
+    if dn.abs() < 1e-12 {
+        return None;
+    }
+    let t = -en / dn;
+    (t > 0.0).then(|| std::array::from_fn(|i| e[i] + t * d[i]))
+}

@@ -1,0 +1,301 @@
+//! What the per-vertex runtime refuses, and how it says so: a bake of the other kind (both
+//! ways), one corruption at a time (each error names the tensor or field), bad cameras, bad
+//! environments and bad edits; nothing is written to the output on error.
+
+use prt_formats::pixel::Precision;
+use prt_formats::Family;
+use prt_runtime::vertex::VertexRelighter;
+use prt_runtime::{Relighter, RuntimeError};
+
+use crate::common::*;
+
+#[allow(dead_code)]
+#[path = "../suite/synthetic.rs"]
+mod pixel_synthetic;
+
+const UP: [f32; 3] = [0.0, 1.0, 0.0];
+
+/// Two materials on one quad each (the glossy one with a shading basis), reflections 3,
+/// one T2 slot.
+fn two_quads() -> Bake {
+    let basis = constant_basis(0.05, [0.1, 0.05, 0.03, 0.02], false);
+    let mut mesh = Mesh::quad(UP, 0);
+    let other = Mesh::quad(UP, 1);
+    for (p, n) in other.positions.iter().zip(&other.normals) {
+        mesh.positions.push([p[0] + 3.0, p[1], p[2]]);
+        mesh.normals.push(*n);
+    }
+    mesh.uvs.extend(&other.uvs);
+    for t in &other.triangles {
+        mesh.triangles.push(t.map(|v| v + 4));
+    }
+    mesh.triangle_material.extend(&other.triangle_material);
+    let diffuse_rows: Vec<_> = (0..4).map(|_| t0_rows(UP, None)).collect();
+    let glossy_rows: Vec<_> = (0..4).map(|_| t0_rows(UP, Some(&basis))).collect();
+    let g0 = Group::new(vec![0, 1, 2, 3], &diffuse_rows, 2, 1, 1);
+    let g1 = Group::new(vec![4, 5, 6, 7], &glossy_rows, 2, 1, 1);
+    let mut fixed = material("stone", Family::Diffuse, [0.4; 3], [0.0; 3], 0.0);
+    fixed.editable = false;
+    let materials = vec![
+        material("floor", Family::Diffuse, [0.5; 3], [0.0; 3], 0.0),
+        material("metal", Family::Ggx, [0.1; 3], [0.8; 3], 0.3),
+        fixed,
+    ];
+    let mut bake = Bake::new(
+        mesh,
+        materials,
+        vec![(0, g0, None), (1, g1, Some(0))],
+        vec![basis],
+        [1.0; 3],
+    );
+    bake.meta.reflections = 3;
+    bake
+}
+
+fn open_err(bake: &Bake) -> String {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("bad.prtbake");
+    bake.write(&path);
+    match VertexRelighter::open(&path) {
+        Ok(_) => panic!("a corrupt bake was opened"),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn the_reference_bake_opens() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("good.prtbake");
+    two_quads().write(&path);
+    let mut r = VertexRelighter::open(&path).expect("open");
+    let img = render(&mut r, &camera([1.5, 2.0, 3.0], 50.0), 16, 16);
+    assert!(img.iter().all(|v| v.is_finite()));
+}
+
+#[test]
+fn a_bake_of_the_other_kind_is_refused_with_what_to_use() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let pixel = dir.path().join("pixel.prtbake");
+    pixel_synthetic::Synthetic::new(1, None, 3).write(&pixel, Precision::F32);
+    let vertex = dir.path().join("vertex.prtbake");
+    two_quads().write(&vertex);
+    match VertexRelighter::open(&pixel) {
+        Err(e @ RuntimeError::WrongKind { .. }) => {
+            let msg = e.to_string();
+            assert!(
+                msg.contains("per-pixel bake, not a per-vertex") && msg.contains("Relighter"),
+                "{msg}"
+            );
+        }
+        Err(e) => panic!("wrong error: {e}"),
+        Ok(_) => panic!("a per-pixel bake opened as per-vertex"),
+    }
+    match Relighter::open(&vertex) {
+        Err(e @ RuntimeError::WrongKind { .. }) => {
+            let msg = e.to_string();
+            assert!(
+                msg.contains("per-vertex bake, not a per-pixel") && msg.contains("VertexRelighter"),
+                "{msg}"
+            );
+        }
+        Err(e) => panic!("wrong error: {e}"),
+        Ok(_) => panic!("a per-vertex bake opened as per-pixel"),
+    }
+    // Each still opens with its own runtime.
+    Relighter::open(&pixel).expect("pixel bake");
+    VertexRelighter::open(&vertex).expect("vertex bake");
+}
+
+#[test]
+fn each_corruption_is_refused_naming_the_tensor() {
+    type Corrupt = fn(&mut Bake);
+    let cases: Vec<(&str, Corrupt, &[&str])> = vec![
+        (
+            "an extra active slot",
+            |b| b.meta.groups[0].active.push(2),
+            &["v0.t1", "shape"],
+        ),
+        (
+            "fewer T0 terms",
+            |b| b.meta.t0_terms -= 1,
+            &["v0.t0.index", "shape"],
+        ),
+        (
+            "an extra T2 slot",
+            |b| b.meta.t2_slots.push(3),
+            &["v0.t2", "shape"],
+        ),
+        (
+            "a Haar index out of range",
+            |b| b.groups[1].t0_index[5] = 30000,
+            &["v1.t0.index", "30000"],
+        ),
+        (
+            "T1 stored as f16",
+            |b| b.t1_stored_as = Some(Precision::F16),
+            &["v0.t1", "stored as F16, expected F32"],
+        ),
+        (
+            "a triangle index out of range",
+            |b| b.mesh.triangles[3][1] = 8,
+            &["mesh.triangles", "triangle 3", "vertex 8"],
+        ),
+        (
+            "a triangle material out of range",
+            |b| b.mesh.triangle_material[1] = 7,
+            &["mesh.triangle_material", "triangle 1"],
+        ),
+        (
+            "a group vertex out of range",
+            |b| b.groups[1].vertices[3] = 9,
+            &["v1.vertices", "vertex 9"],
+        ),
+        (
+            "a vertex in two groups",
+            |b| b.groups[1].vertices[0] = 3,
+            &["v1.vertices", "vertex 3", "group 0"],
+        ),
+        (
+            "a triangle using another group's vertex",
+            |b| b.mesh.triangles[2][0] = 1,
+            &["triangle 2", "v1.vertices"],
+        ),
+        (
+            "a non-finite position",
+            |b| b.mesh.positions[6][1] = f32::NAN,
+            &["mesh.positions", "vertex 6"],
+        ),
+        (
+            "a zero normal",
+            |b| b.mesh.normals[2] = [0.0; 3],
+            &["mesh.normals", "normal 2"],
+        ),
+        (
+            "a short shading table",
+            |b| {
+                b.shading[0].u_i.pop();
+            },
+            &["shading basis 0", "u_i"],
+        ),
+        (
+            "a non-finite environment",
+            |b| {
+                let mut map = asymmetric_map(8, 4);
+                map[7] = f32::INFINITY;
+                b.set_latlong(8, 4, map, 0.0);
+            },
+            &["environment", "NaN or infinite"],
+        ),
+        (
+            "another schema version",
+            |b| b.meta.vertex_schema_version = 99,
+            &["vertex schema version 99"],
+        ),
+    ];
+    for (what, corrupt, words) in cases {
+        let mut b = two_quads();
+        corrupt(&mut b);
+        let msg = open_err(&b);
+        for w in words {
+            assert!(msg.contains(w), "{what}: {msg:?} does not say {w:?}");
+        }
+    }
+}
+
+#[test]
+fn bad_cameras_and_outputs_are_refused_and_nothing_is_written() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("good.prtbake");
+    two_quads().write(&path);
+    let mut r = VertexRelighter::open(&path).expect("open");
+    let good = camera([1.5, 2.0, 3.0], 50.0);
+    let mut out = vec![-7.0f32; 3 * 8 * 8];
+    let mut zero_fov = good;
+    zero_fov.yfov = 0.0;
+    let mut nan_eye = good;
+    nan_eye.position[0] = f32::NAN;
+    for (cam, words) in [(zero_fov, "field of view"), (nan_eye, "not finite")] {
+        let e = r.render(&cam, 8, 8, &mut out).expect_err("bad camera");
+        assert!(e.to_string().contains(words), "{e}");
+    }
+    let e = r
+        .render(&good, 8, 9, &mut out)
+        .expect_err("wrong output size");
+    assert!(matches!(e, RuntimeError::OutputSize { .. }), "{e}");
+    let e = r.render(&good, 0, 8, &mut []).expect_err("empty image");
+    assert!(e.to_string().contains("0x8"), "{e}");
+    assert!(out.iter().all(|&v| v == -7.0), "written on error");
+
+    // An eye inside a closed box.
+    let mesh = Mesh::closed_box(0);
+    let nv = mesh.positions.len();
+    let rows: Vec<_> = (0..nv).map(|_| vec![vec![0.0f32; 4]]).collect();
+    let g = Group::new((0..nv as u32).collect(), &rows, 0, 0, 1);
+    let m = material("crate", Family::Diffuse, [0.5; 3], [0.0; 3], 0.0);
+    let boxed = Bake::new(mesh, vec![m], vec![(0, g, None)], Vec::new(), [1.0; 3]);
+    let path = dir.path().join("box.prtbake");
+    boxed.write(&path);
+    let mut r = VertexRelighter::open(&path).expect("open");
+    let inside = prt_formats::view::CameraSpec {
+        eye: [0.1, 0.2, 0.0],
+        target: [0.0, 0.0, -1.0],
+        fov_deg: 60.0,
+    }
+    .frame()
+    .expect("camera");
+    let e = r.render(&inside, 8, 8, &mut out).expect_err("eye inside");
+    assert!(matches!(e, RuntimeError::EyeInside { .. }), "{e}");
+    assert!(e.to_string().contains("inside 'crate'"), "{e}");
+    assert!(out.iter().all(|&v| v == -7.0), "written on error");
+    // Outside, the box renders.
+    render(&mut r, &camera([3.0, 2.0, 4.0], 50.0), 8, 8);
+}
+
+#[test]
+fn bad_environments_and_edits_are_refused() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("good.prtbake");
+    two_quads().write(&path);
+    let mut r = VertexRelighter::open(&path).expect("open");
+    let e = r
+        .set_environment_latlong(2, 1, vec![[1.0; 3], [f32::NAN, 0.0, 0.0]], 0.0)
+        .expect_err("NaN texel");
+    assert!(e.to_string().contains("NaN or infinite"), "{e}");
+    let e = r
+        .set_environment_latlong(2, 2, vec![[1.0; 3]; 3], 0.0)
+        .expect_err("texel count");
+    assert!(e.to_string().contains("3 texels for a 2x2"), "{e}");
+    let e = r
+        .set_environment_rotation(f32::INFINITY)
+        .expect_err("rotation");
+    assert!(e.to_string().contains("rotation"), "{e}");
+    let report = r
+        .set_environment_latlong(2, 1, vec![[1.0; 3], [-1.0, 0.5, 0.5]], 15.0)
+        .expect("negative channels are clamped");
+    assert_eq!(report.clamped_texels, 1);
+
+    let set = |s: &str| {
+        s.parse::<prt_formats::MaterialOverride>()
+            .expect("override")
+    };
+    assert!(matches!(
+        r.apply(&set("stone.kd=0.1,0.1,0.1")),
+        Err(RuntimeError::NotEditable { .. })
+    ));
+    assert!(matches!(
+        r.apply(&set("floor.alpha=0.2")),
+        Err(RuntimeError::WrongParam { .. })
+    ));
+    assert!(matches!(
+        r.apply(&set("nothing.kd=1")),
+        Err(RuntimeError::UnknownMaterial { .. })
+    ));
+    let mut p = r.params("metal").expect("params");
+    p.ks = [-1.0, 0.0, 0.0];
+    let e = r.set_params("metal", p).expect_err("negative ks");
+    assert!(e.to_string().contains("ks"), "{e}");
+    p.ks = [0.5; 3];
+    p.param = 0.6;
+    r.set_params("metal", p).expect("good params");
+    assert_eq!(r.params("metal").expect("params").param, 0.6);
+}

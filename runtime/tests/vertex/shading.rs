@@ -1,0 +1,291 @@
+//! The view stage against values computed here from the definitions: a quad facing +Y under a
+//! constant environment, diffuse, glossy with hand-made shading bases, textured; the
+//! background; the side without data.
+
+use prt_formats::lighting::cubemap::direction_to_texel;
+use prt_formats::lighting::Face;
+use prt_formats::texture::sample_bilinear;
+use prt_formats::vertex::{to_local, vertex_frame, VISIBILITY_CUBE};
+use prt_formats::Family;
+use prt_runtime::vertex::VertexRelighter;
+
+use crate::common::*;
+
+const UP: [f32; 3] = [0.0, 1.0, 0.0];
+const L: [f32; 3] = [1.0, 2.0, 0.5];
+const W: u32 = 48;
+const H: u32 = 40;
+
+/// Pixels of a `W x H` view of the quad: `(x, y, Some(hit point))` well inside the quad,
+/// `(x, y, None)` well outside it (the background); pixels near the quad's edges are left out.
+fn classify(cam: &prt_formats::view::CameraFrame) -> Vec<(u32, u32, Option<[f64; 3]>)> {
+    let mut out = Vec::new();
+    for y in 0..H {
+        for x in 0..W {
+            match hit_plane(cam, W, H, x, y, UP) {
+                Some(p) if p[0].abs() < 0.97 && p[2].abs() < 0.97 => out.push((x, y, Some(p))),
+                Some(p) if p[0].abs() < 1.03 && p[2].abs() < 1.03 => {}
+                _ => out.push((x, y, None)),
+            }
+        }
+    }
+    let inside = out.iter().filter(|p| p.2.is_some()).count();
+    assert!(
+        inside > 200 && out.len() - inside > 100,
+        "{inside} of {}",
+        out.len()
+    );
+    out
+}
+
+fn open(bake: &Bake) -> (tempfile::TempDir, VertexRelighter) {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("v.prtbake");
+    bake.write(&path);
+    let r = VertexRelighter::open(&path).expect("open");
+    (dir, r)
+}
+
+fn close(got: &[f32], want: [f64; 3], rel: f64, what: &str) {
+    for c in 0..3 {
+        let tol = rel * want[c].abs().max(1e-3);
+        assert!(
+            (got[c] as f64 - want[c]).abs() <= tol,
+            "{what}: channel {c}: {} vs {}",
+            got[c],
+            want[c]
+        );
+    }
+}
+
+fn diffuse_quad(kd: [f32; 3]) -> Bake {
+    let mesh = Mesh::quad(UP, 0);
+    let rows: Vec<_> = (0..4).map(|_| t0_rows(UP, None)).collect();
+    let g = Group::new(vec![0, 1, 2, 3], &rows, 0, 0, 1);
+    let m = material("floor", Family::Diffuse, kd, [0.0; 3], 0.0);
+    Bake::new(mesh, vec![m], vec![(0, g, None)], Vec::new(), L)
+}
+
+#[test]
+fn diffuse_under_a_constant_environment_is_kd_times_l() {
+    let kd = [0.5, 0.3, 0.8];
+    let (_dir, mut r) = open(&diffuse_quad(kd));
+    let cam = camera([0.0, 2.0, 2.5], 45.0);
+    let img = render(&mut r, &cam, W, H);
+    for (x, y, hit) in classify(&cam) {
+        let px = &img[3 * (y * W + x) as usize..][..3];
+        let want: [f64; 3] = match hit {
+            Some(_) => std::array::from_fn(|c| (kd[c] * L[c]) as f64),
+            None => L.map(f64::from),
+        };
+        close(px, want, 1e-3, &format!("pixel ({x}, {y})"));
+    }
+    // From below, the quad shows its side without data: black, the sky still lit.
+    let below = camera([0.0, -2.0, 2.5], 45.0);
+    let img = render(&mut r, &below, W, H);
+    for (x, y, hit) in classify(&below) {
+        let px = &img[3 * (y * W + x) as usize..][..3];
+        match hit {
+            Some(_) => assert_eq!(px, [0.0; 3], "pixel ({x}, {y})"),
+            None => close(px, L.map(f64::from), 1e-6, "background"),
+        }
+    }
+}
+
+fn glossy_quad(
+    a: f32,
+    refl: [f32; 4],
+    view_dependent: bool,
+    visibility: impl Fn(usize) -> u8,
+) -> Bake {
+    let basis = constant_basis(a, refl, view_dependent);
+    let mesh = Mesh::quad(UP, 0);
+    let rows: Vec<_> = (0..4).map(|_| t0_rows(UP, Some(&basis))).collect();
+    let mut g = Group::new(vec![0, 1, 2, 3], &rows, 0, 0, 1);
+    let per_vertex = 6 * VISIBILITY_CUBE * VISIBILITY_CUBE;
+    for (k, v) in g.visibility.iter_mut().enumerate() {
+        *v = visibility(k % per_vertex);
+    }
+    let m = material("metal", Family::Ggx, [0.2, 0.4, 0.1], [0.9, 0.6, 0.3], 0.3);
+    Bake::new(mesh, vec![m], vec![(0, g, Some(0))], vec![basis], L)
+}
+
+#[test]
+fn a_glossy_material_adds_ks_times_l_times_the_bases_albedo() {
+    let (a, refl) = (0.05f32, [0.1f32, 0.05, 0.03, 0.02]);
+    let cam = camera([0.5, 2.0, 2.5], 45.0);
+    let (kd, ks) = ([0.2f32, 0.4, 0.1], [0.9f32, 0.6, 0.3]);
+    let pi = std::f64::consts::PI;
+    let e = cube_cosine_integral(UP);
+    for (visible, split) in [(255u8, refl.iter().sum::<f32>() as f64), (0, 0.0)] {
+        let (_dir, mut r) = open(&glossy_quad(a, refl, false, |_| visible));
+        let img = render(&mut r, &cam, W, H);
+        // B = Kd L E / pi + Ks L (a E + V sum_w R_w), E ~ pi the cube's cosine integral.
+        for (x, y, hit) in classify(&cam) {
+            let px = &img[3 * (y * W + x) as usize..][..3];
+            let want: [f64; 3] = match hit {
+                Some(_) => std::array::from_fn(|c| {
+                    let l = L[c] as f64;
+                    kd[c] as f64 * l * e / pi + ks[c] as f64 * l * (a as f64 * e + split)
+                }),
+                None => L.map(f64::from),
+            };
+            close(
+                px,
+                want,
+                1e-3,
+                &format!("visibility {visible}, pixel ({x}, {y})"),
+            );
+        }
+    }
+}
+
+#[test]
+fn glossy_shading_follows_the_view_and_the_mirror_directions_visibility() {
+    // U^o = wo.z (view-dependent residual); the visibility cube is seen through its +Y face
+    // fully, through -Z half, elsewhere not, so the split's direct part shows which face the
+    // mirror direction (not the view direction, which leaves through +Z) goes through.
+    let (a, refl) = (0.08f32, [0.2f32, 0.1, 0.05, 0.05]);
+    let per_face = VISIBILITY_CUBE * VISIBILITY_CUBE;
+    let face_visibility = |f: usize| [0u8, 0, 255, 0, 0, 128][f];
+    let bake = glossy_quad(a, refl, true, |k| face_visibility(k / per_face));
+    let basis = bake.shading[0].clone();
+    let (_dir, mut r) = open(&bake);
+    let cam = camera([0.0, 2.0, 2.5], 50.0);
+    let img = render(&mut r, &cam, W, H);
+    let (kd, ks, param) = ([0.2f32, 0.4, 0.1], [0.9f32, 0.6, 0.3], 0.3);
+    let e = cube_cosine_integral(UP);
+    let (t, b) = vertex_frame(UP);
+    let (mut seen_visible, mut seen_hidden) = (0, 0);
+    for (x, y, hit) in classify(&cam) {
+        let Some(p) = hit else { continue };
+        let eye = cam.position.map(f64::from);
+        let d: [f64; 3] = std::array::from_fn(|i| eye[i] - p[i]);
+        let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        let wo = d.map(|c| (c / len) as f32);
+        let wo_l = to_local(t, b, UP, wo);
+        let mut uo = [0.0f32; 32];
+        basis.u_o_row(wo_l, &mut uo);
+        let mut rw = [0.0f32; 8];
+        basis.reflectances_into(param, wo_l, &mut rw);
+        // The mirror direction in the world: 2 (n . wo) n - wo.
+        let r_w = [-wo[0], wo[1], -wo[2]].map(f64::from);
+        let face = direction_to_texel(VISIBILITY_CUBE, r_w).0;
+        match face {
+            Face::PosY => seen_visible += 1,
+            _ => seen_hidden += 1,
+        }
+        let v = face_visibility(face.index()) as f64 / 255.0;
+        let split: f64 = rw[..4].iter().map(|&x| x as f64).sum::<f64>() * v;
+        let want: [f64; 3] = std::array::from_fn(|c| {
+            let l = L[c] as f64;
+            let spec = a as f64 * uo[0] as f64 * e * l + split * l;
+            kd[c] as f64 * l * e / std::f64::consts::PI + ks[c] as f64 * spec
+        });
+        let px = &img[3 * (y * W + x) as usize..][..3];
+        close(px, want, 1e-3, &format!("pixel ({x}, {y})"));
+    }
+    assert!(
+        seen_visible > 50 && seen_hidden > 50,
+        "{seen_visible} {seen_hidden}"
+    );
+}
+
+#[test]
+fn a_texture_multiplies_kd_at_each_pixel() {
+    let kd = [0.8, 0.6, 0.9];
+    let mut bake = diffuse_quad(kd);
+    // 2 x 2 texels: bilinear across the quad.
+    let tex = vec![
+        1.0, 0.2, 0.2, 0.2, 1.0, 0.2, //
+        0.2, 0.2, 1.0, 1.0, 1.0, 1.0,
+    ];
+    bake.set_texture(0, 2, 2, tex.clone());
+    let texels: Vec<[f32; 3]> = tex.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+    let (_dir, mut r) = open(&bake);
+    let cam = camera([0.3, 2.0, 2.5], 45.0);
+    let img = render(&mut r, &cam, W, H);
+    let e = cube_cosine_integral(UP) / std::f64::consts::PI;
+    for (x, y, hit) in classify(&cam) {
+        let Some(p) = hit else { continue };
+        let uv = [((p[0] + 1.0) / 2.0) as f32, ((p[2] + 1.0) / 2.0) as f32];
+        let t = sample_bilinear(&texels, 2, 2, uv);
+        let want: [f64; 3] = std::array::from_fn(|c| (kd[c] * t[c] * L[c]) as f64 * e);
+        close(
+            &img[3 * (y * W + x) as usize..][..3],
+            want,
+            2e-3,
+            &format!("pixel ({x}, {y})"),
+        );
+    }
+}
+
+#[test]
+fn reflected_light_reaches_the_last_reflection_through_sh_and_the_uniform_term() {
+    // No direct light (T0 and visibility zero); one reflection off slot 0 arrives as SH
+    // coefficients 0 and 2 (Y_00 and Y_10 in the vertex frame), two reflections as a uniform
+    // radiance. With U^i = 1: E = U = Ehat_0 I1_0 + Ehat_2 I1_2 + pi I2, and the split sees
+    // S_w = g_w0 I1_0 Y_00 + g_w1 I1_2 Y_10(r) + I2 with the normalized Gaussian's factors.
+    let (a, refl) = (0.05f32, [0.2f32, 0.1, 0.3, 0.1]);
+    let basis = constant_basis(a, refl, false);
+    let mesh = Mesh::quad(UP, 0);
+    let rows: Vec<_> = (0..4).map(|_| vec![vec![0.0f32; 8]; 2]).collect();
+    let mut g = Group::new(vec![0, 1, 2, 3], &rows, 1, 1, 1);
+    g.visibility.fill(0);
+    let (v0, v2, v_two) = (0.002f32, 0.001f32, 0.01f32);
+    for v in 0..4 {
+        for l in 0..384 {
+            g.t1[(v * 384 + l) * 16] = v0;
+            g.t1[(v * 384 + l) * 16 + 2] = v2;
+        }
+        for l in 0..24 {
+            g.t2[v * 24 + l] = v_two;
+        }
+    }
+    let (kd, ks) = ([0.3f32, 0.5, 0.7], [0.6f32, 0.4, 0.2]);
+    let m = material("metal", Family::Ggx, kd, ks, 0.3);
+    let mut bake = Bake::new(mesh, vec![m], vec![(0, g, Some(0))], vec![basis], L);
+    bake.meta.reflections = 3;
+    let (_dir, mut r) = open(&bake);
+    let cam = camera([0.4, 2.0, 2.5], 50.0);
+    let img = render(&mut r, &cam, W, H);
+    let pi = std::f64::consts::PI;
+    let (t, b) = vertex_frame(UP);
+    // The slot coefficient of slot 0 (the material's Kd).
+    let factors: Vec<[f64; 4]> = [0.0f64, 7.0, 14.0, 21.0]
+        .iter()
+        .map(|&w| {
+            if w == 0.0 {
+                return [1.0; 4];
+            }
+            let s = f64::to_radians(w);
+            let f = prt_formats::lighting::prefilter::sh_factors(s).expect("factors");
+            let k = prt_formats::lighting::prefilter::kernel_integral(s).expect("integral");
+            f.map(|x| x / k)
+        })
+        .collect();
+    for (x, y, hit) in classify(&cam) {
+        let Some(p) = hit else { continue };
+        let eye = cam.position.map(f64::from);
+        let d: [f64; 3] = std::array::from_fn(|i| eye[i] - p[i]);
+        let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        let wo_l = to_local(t, b, UP, d.map(|c| (c / len) as f32));
+        let want: [f64; 3] = std::array::from_fn(|ch| {
+            let (c, l) = (kd[ch] as f64, L[ch] as f64);
+            let i1_0 = c * l * 384.0 * v0 as f64;
+            let i1_2 = c * l * 384.0 * v2 as f64;
+            let i2 = c * c * l * 24.0 * v_two as f64;
+            let e = pi.sqrt() / 2.0 * i1_0 + (pi / 3.0).sqrt() * i1_2 + pi * i2;
+            // Y_00 and Y_10 = sqrt(3 / (4 pi)) z at the mirror direction (z unchanged).
+            let (y0, y2) = (0.5 / pi.sqrt(), (3.0 / (4.0 * pi)).sqrt() * wo_l[2] as f64);
+            let split: f64 = refl
+                .iter()
+                .zip(&factors)
+                .map(|(&rw, g)| rw as f64 * (g[0] * i1_0 * y0 + g[1] * i1_2 * y2 + i2))
+                .sum();
+            c * e / pi + ks[ch] as f64 * (a as f64 * e + split)
+        });
+        let px = &img[3 * (y * W + x) as usize..][..3];
+        close(px, want, 1e-4, &format!("pixel ({x}, {y})"));
+    }
+}
