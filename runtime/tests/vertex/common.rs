@@ -102,6 +102,8 @@ pub struct Group {
     /// `[V_g, 384, J, 16, channels]`.
     pub t1: Vec<f32>,
     pub t1_shape: [usize; 5],
+    /// T1 as stored f16 values, used instead of `t1` when T1 is stored as f16 (large bakes).
+    pub t1_f16: Option<Vec<f16>>,
     /// `[V_g, 24, J, I, channels]` (reflections = 3).
     pub t2: Vec<f32>,
     pub t2_shape: [usize; 5],
@@ -142,6 +144,7 @@ impl Group {
             visibility: vec![255; nv * cube_len(VISIBILITY_CUBE)],
             t1: vec![0.0; t1_shape.iter().product()],
             t1_shape,
+            t1_f16: None,
             t2: vec![0.0; t2_shape.iter().product()],
             t2_shape,
         }
@@ -421,7 +424,13 @@ impl Bake {
         let h16: Vec<[Vec<f16>; 3]> = self
             .groups
             .iter()
-            .map(|g| [halves(&g.t0_value), halves(&g.t1), halves(&g.t2)])
+            .map(|g| {
+                let t1 = match &g.t1_f16 {
+                    Some(_) => Vec::new(),
+                    None => halves(&g.t1),
+                };
+                [halves(&g.t0_value), t1, halves(&g.t2)]
+            })
             .collect();
         let m = &self.mesh;
         let flat3 = |v: &[[f32; 3]]| -> Vec<f32> { v.iter().flatten().copied().collect() };
@@ -447,26 +456,10 @@ impl Bake {
                 .expect("vertices");
             w.add_u16(&names::t0_index(g), &gd.t0_shape, &gd.t0_index)
                 .expect("t0 index");
-            let add = |w: &mut BakeWriter<'_>,
-                       p: Precision,
-                       name: String,
-                       shape: &[usize],
-                       f: &[f32],
-                       h: &[f16]| {
-                match p {
-                    Precision::F32 => {
-                        w.add_tensor(&name, prt_formats::Dtype::F32, shape, f32_bytes(f))
-                    }
-                    Precision::F16 => {
-                        w.add_tensor(&name, prt_formats::Dtype::F16, shape, f16_bytes(h))
-                    }
-                }
-                .expect("values")
-            };
-            add(
+            add_values(
                 &mut w,
                 precision,
-                names::t0_value(g),
+                &names::t0_value(g),
                 &gd.t0_shape,
                 &gd.t0_value,
                 &h[0],
@@ -477,16 +470,24 @@ impl Bake {
                 &gd.visibility,
             )
             .expect("visibility");
-            add(
+            let t1_16 = gd.t1_f16.as_deref().unwrap_or(&h[1]);
+            add_values(
                 &mut w,
                 t1_precision,
-                names::t1(g),
+                &names::t1(g),
                 &gd.t1_shape,
                 &gd.t1,
-                &h[1],
+                t1_16,
             );
             if self.meta.reflections >= 3 {
-                add(&mut w, precision, names::t2(g), &gd.t2_shape, &gd.t2, &h[2]);
+                add_values(
+                    &mut w,
+                    precision,
+                    &names::t2(g),
+                    &gd.t2_shape,
+                    &gd.t2,
+                    &h[2],
+                );
             }
         }
         for (b, basis) in self.shading.iter().enumerate() {
@@ -516,12 +517,20 @@ impl Bake {
     }
 }
 
-fn f32_bytes(v: &[f32]) -> Vec<u8> {
-    v.iter().flat_map(|x| x.to_le_bytes()).collect()
-}
-
-fn f16_bytes(v: &[f16]) -> Vec<u8> {
-    v.iter().flat_map(|x| x.to_le_bytes()).collect()
+/// Adds a values tensor as f32 or f16.
+fn add_values<'a>(
+    w: &mut BakeWriter<'a>,
+    p: Precision,
+    name: &str,
+    shape: &[usize],
+    f: &'a [f32],
+    h: &'a [f16],
+) {
+    match p {
+        Precision::F32 => w.add_f32(name, shape, f),
+        Precision::F16 => w.add_f16(name, shape, h),
+    }
+    .expect("values");
 }
 
 /// A lat-long map `[h, w, 3]` flat: dim sky, a bright warm patch towards -Z above the
