@@ -1,13 +1,26 @@
 //! `relight`: opens a bake file and writes an image for edited materials, without tracing.
 //!
 //!     relight out/cornell.prtbake --set bunny.kd=0.8,0.2,0.2 --set bunny.shininess=120 --out bunny.png
+//!
+//! A per-vertex bake (docs/vertex.md) also takes a new environment, its rotation, a camera and
+//! an image size:
+//!
+//!     relight out/gallery.prtbake --env sky.exr --env-rotate 90 \
+//!         --camera "eye=0,1.2,3.5 target=0,0.4,0 fov=40" --width 800 --height 600 --out g.exr
+//!
+//! The kind of bake is read from the file; a per-pixel bake has its light and view frozen, so
+//! those flags are refused for it.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{bail, Context, Result};
 use clap::Parser;
-use prt_formats::MaterialOverride;
+use prt_formats::envmap::{load_latlong, LatLongMap};
+use prt_formats::vertex::BakeKind;
+use prt_formats::view::CameraSpec;
+use prt_formats::{BakeFile, MaterialOverride};
+use prt_runtime::vertex::VertexRelighter;
 use prt_runtime::{Relighter, Variant};
 
 #[derive(Parser, Debug)]
@@ -22,8 +35,9 @@ struct Args {
     /// ks, shininess, alpha; names and units as in the bake config).
     #[arg(long = "set", value_name = "MATERIAL.PARAM=VALUE")]
     set: Vec<MaterialOverride>,
-    /// Output image: .exr (linear) or .png (tone-mapped). Default: next to the bake file.
-    #[arg(long)]
+    /// Output image: .exr (linear) or .png (tone-mapped), written atomically (nothing is
+    /// written on error). Default: next to the bake file.
+    #[arg(long, visible_alias = "output")]
     out: Option<PathBuf>,
     /// Relight from the low-rank variant (bake with --compress-rank).
     #[arg(long)]
@@ -37,29 +51,72 @@ struct Args {
     /// List the materials (editable ones and their parameters) and exit.
     #[arg(long)]
     list: bool,
-    /// Print one JSON object with the figures (time per frame, bytes read per frame).
+    /// Print one JSON object with the figures (time per frame, bytes read per frame; per-stage
+    /// times for a per-vertex bake).
     #[arg(long)]
     json: bool,
+    /// Per-vertex bakes: light with this lat-long environment map (.exr or .hdr) instead of
+    /// the baked one.
+    #[arg(long, value_name = "FILE")]
+    env: Option<PathBuf>,
+    /// Per-vertex bakes: multiply the environment (the --env map, or the baked one) by this
+    /// factor [default: 1].
+    #[arg(long, value_name = "X")]
+    env_intensity: Option<f32>,
+    /// Per-vertex bakes: turn the environment this many degrees about +Y (right-hand rule)
+    /// [default: 0 with --env, else the baked rotation].
+    #[arg(long, value_name = "DEGREES", allow_negative_numbers = true)]
+    env_rotate: Option<f32>,
+    /// Per-vertex bakes: the view, e.g. "eye=0,1.2,3.5 target=0,0.4,0 fov=40" (vertical field
+    /// of view in degrees) [default: the bake's camera].
+    #[arg(long, value_name = "\"eye=X,Y,Z target=X,Y,Z fov=DEG\"")]
+    camera: Option<CameraSpec>,
+    /// Per-vertex bakes: image width in pixels [default: 512].
+    #[arg(long)]
+    width: Option<u32>,
+    /// Per-vertex bakes: image height in pixels [default: 512].
+    #[arg(long)]
+    height: Option<u32>,
 }
+
+/// Image side when --width or --height is not given.
+const DEFAULT_SIDE: u32 = 512;
 
 fn main() -> ExitCode {
     prt_cli::exit_code(run(Args::parse()))
 }
 
 fn run(args: Args) -> Result<()> {
-    let mut r = Relighter::open(&args.bake)?;
+    if args.repeat == 0 {
+        bail!("--repeat must be at least 1");
+    }
+    let file = BakeFile::open(&args.bake)?;
+    if BakeKind::of_metadata(file.metadata()) == Some(BakeKind::Vertex) {
+        return run_vertex(args, file);
+    }
+    let vertex_only: Vec<&str> = [
+        ("--env", args.env.is_some()),
+        ("--env-intensity", args.env_intensity.is_some()),
+        ("--env-rotate", args.env_rotate.is_some()),
+        ("--camera", args.camera.is_some()),
+        ("--width", args.width.is_some()),
+        ("--height", args.height.is_some()),
+    ]
+    .into_iter()
+    .filter_map(|(flag, given)| given.then_some(flag))
+    .collect();
+    if !vertex_only.is_empty() {
+        bail!(
+            "{} is a per-pixel bake: its light and view are frozen into the file, so {} \
+             cannot be used (they need a per-vertex bake, `mode = \"vertex\"`); only --set \
+             edits materials",
+            args.bake.display(),
+            vertex_only.join(", ")
+        );
+    }
+    let mut r = Relighter::from_file(file)?;
     if args.list {
-        for m in &r.meta().materials {
-            println!(
-                "{:<20} {:<12} {} kd={:?} ks={:?} param={}",
-                m.name,
-                m.family,
-                if m.editable { "editable" } else { "fixed   " },
-                m.kd,
-                m.ks,
-                m.param
-            );
-        }
+        list_materials(&r.meta().materials);
         return Ok(());
     }
     for o in &args.set {
@@ -68,9 +125,6 @@ fn run(args: Args) -> Result<()> {
     let (_, clamped) = r.coefficients();
     if clamped {
         eprintln!("warning: a shininess/alpha lies outside its basis' sampled range and was clamped to it");
-    }
-    if args.repeat == 0 {
-        bail!("--repeat must be at least 1");
     }
     let variant = if args.compressed {
         Variant::Compressed
@@ -86,9 +140,7 @@ fn run(args: Args) -> Result<()> {
     }
     times.sort_by(f64::total_cmp);
     let median = times[times.len() / 2];
-    let out = args
-        .out
-        .unwrap_or_else(|| args.bake.with_extension("").with_extension("relit.png"));
+    let out = args.out.unwrap_or_else(|| default_out(&args.bake));
     prt_formats::write_image(
         &out,
         frame.width as usize,
@@ -122,6 +174,137 @@ fn run(args: Args) -> Result<()> {
             frame.height,
             median * 1e3,
             frame.bytes_read,
+            out.display()
+        );
+    }
+    Ok(())
+}
+
+/// The default output: next to the bake file, `<name>.relit.png`.
+fn default_out(bake: &Path) -> PathBuf {
+    bake.with_extension("").with_extension("relit.png")
+}
+
+fn list_materials(materials: &[prt_formats::pixel::MaterialMeta]) {
+    for m in materials {
+        println!(
+            "{:<20} {:<12} {} kd={:?} ks={:?} param={}",
+            m.name,
+            m.family,
+            if m.editable { "editable" } else { "fixed   " },
+            m.kd,
+            m.ks,
+            m.param
+        );
+    }
+}
+
+/// A per-vertex bake: environment, camera and materials, then the image.
+fn run_vertex(args: Args, file: BakeFile) -> Result<()> {
+    if args.compressed {
+        bail!(
+            "{}: --compressed reads the low-rank variant of a per-pixel bake; this is a \
+             per-vertex bake",
+            args.bake.display()
+        );
+    }
+    let mut r = VertexRelighter::from_file(file)?;
+    if args.list {
+        list_materials(&r.meta().materials);
+        return Ok(());
+    }
+    let intensity = args.env_intensity.unwrap_or(1.0);
+    if let Some(path) = &args.env {
+        let (map, report) = load_latlong(path, intensity)
+            .with_context(|| format!("environment map {}", path.display()))?;
+        if report.clamped_texels > 0 {
+            eprintln!(
+                "warning: {}: {} texel(s) with negative channels were clamped to 0",
+                path.display(),
+                report.clamped_texels
+            );
+        }
+        r.set_environment(map, args.env_rotate.unwrap_or(0.0))?;
+    } else {
+        let (map, rotation) = r.environment();
+        let rotation = args.env_rotate.unwrap_or(rotation);
+        if intensity != 1.0 {
+            let (scaled, _) = LatLongMap::new(map.width, map.height, map.texels.clone(), intensity)
+                .context("--env-intensity")?;
+            r.set_environment(scaled, rotation)?;
+        } else {
+            r.set_environment_rotation(rotation)?;
+        }
+    }
+    for o in &args.set {
+        r.apply(o)?;
+    }
+    let camera = match &args.camera {
+        Some(spec) => spec.frame()?,
+        None => r.default_camera(),
+    };
+    let (width, height) = (
+        args.width.unwrap_or(DEFAULT_SIDE),
+        args.height.unwrap_or(DEFAULT_SIDE),
+    );
+    let mut rgb = vec![0.0f32; 3 * width as usize * height as usize];
+    let first = r.render(&camera, width, height, &mut rgb)?;
+    if first.clamped {
+        eprintln!("warning: a shininess/alpha lies outside its basis' sampled range and was clamped to it");
+    }
+    // Repeats change nothing: they measure the view stage alone.
+    let mut views = vec![first.view_s];
+    for _ in 1..args.repeat {
+        views.push(r.render(&camera, width, height, &mut rgb)?.view_s);
+    }
+    views.sort_by(f64::total_cmp);
+    let view_median = views[views.len() / 2];
+    let pixels: Vec<[f32; 3]> = rgb.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+    let out = args.out.clone().unwrap_or_else(|| default_out(&args.bake));
+    prt_formats::write_image(
+        &out,
+        width as usize,
+        height as usize,
+        &pixels,
+        args.exposure,
+    )
+    .with_context(|| format!("writing {}", out.display()))?;
+    let (light_s, material_s) = (
+        first.light_s.unwrap_or(0.0),
+        first.material_s.unwrap_or(0.0),
+    );
+    if args.json {
+        let (_, rotation) = r.environment();
+        println!(
+            "{}",
+            serde_json::json!({
+                "bake": args.bake,
+                "kind": "vertex",
+                "out": out,
+                "width": width,
+                "height": height,
+                "env": args.env,
+                "env_rotate": rotation,
+                "camera": args.camera.map(|c| c.to_string()),
+                "stages": {
+                    "light_s": light_s,
+                    "material_s": material_s,
+                    "view_s": first.view_s,
+                },
+                "seconds_first_frame": light_s + material_s + first.view_s,
+                "frames": views.len(),
+                "view_s_median": view_median,
+                "view_s_min": views[0],
+                "threads": rayon::current_num_threads(),
+                "clamped": first.clamped,
+            })
+        );
+    } else {
+        eprintln!(
+            "relit {width}x{height}: light {:.1} ms, materials {:.1} ms, view {:.1} ms; wrote {}",
+            light_s * 1e3,
+            material_s * 1e3,
+            view_median * 1e3,
             out.display()
         );
     }
