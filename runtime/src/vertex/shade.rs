@@ -187,7 +187,8 @@ impl ViewInputs<'_> {
         let mut b: [f32; 3] =
             std::array::from_fn(|c| params.kd[c] * tex[c] * inv_pi * rec[E_AT + c]);
         let Some(lobe) = &self.lobes[m] else {
-            return b;
+            // The irradiance's kept Haar terms and SH can ring below 0 too (see below).
+            return b.map(|v| v.max(0.0));
         };
         let basis = &s.shading[lobe.basis];
         let widths = &self.widths[lobe.basis];
