@@ -10,3 +10,4 @@ mod reproducible;
 mod runtime_compressed;
 mod runtime_kernels;
 mod runtime_threads;
+mod vertex_convergence;
