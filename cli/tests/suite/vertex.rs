@@ -214,4 +214,10 @@ fn a_vertex_bake_relights_any_view_light_and_material_and_refuses_bad_input() {
         &["--camera"],
         &png,
     );
+    fails(
+        RELIGHT,
+        &[s(&pixel_file), "--width", "32", "--out", p],
+        &["--width"],
+        &png,
+    );
 }
