@@ -8,7 +8,7 @@ use prt_formats::basis::BrdfBasis;
 use prt_formats::overrides::{MaterialOverride, OverrideValue};
 use prt_formats::pixel::{slot_coefficients, BasisMeta, MaterialMeta, MaterialParams};
 
-use crate::RuntimeError;
+use crate::error::RuntimeError;
 
 /// The materials of a bake and their current parameters.
 #[derive(Clone, Debug)]

@@ -12,7 +12,7 @@ use prt_formats::vertex::{cube_len, DIRECT_CUBE, VISIBILITY_CUBE};
 use crate::accel::Accel;
 
 use super::error::VertexError;
-use super::trace::VertexFrame;
+use super::frame::VertexFrame;
 
 /// Texels of the direct cube (6 x 64 x 64).
 pub const T0_TEXELS: usize = cube_len(DIRECT_CUBE);

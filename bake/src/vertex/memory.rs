@@ -103,14 +103,6 @@ impl VertexPlan {
     }
 }
 
-/// Bytes of one stored T0 value, T1 or T2 value.
-pub(crate) fn value_bytes(p: Precision) -> usize {
-    match p {
-        Precision::F32 => 4,
-        Precision::F16 => 2,
-    }
-}
-
 /// Memory estimate of a per-vertex bake, in bytes.
 #[derive(Clone, Debug, PartialEq)]
 pub struct VertexMemoryEstimate {

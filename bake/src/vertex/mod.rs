@@ -25,6 +25,7 @@
 mod bake;
 mod direct;
 mod error;
+mod frame;
 mod memory;
 mod plan;
 mod trace;

@@ -20,8 +20,8 @@ use crate::scene::{PunctualLight, Scene};
 use crate::units::human_bytes;
 
 use super::error::VertexError;
-use super::memory::value_bytes;
-use super::trace::{first_direction, VertexFrame};
+use super::frame::{first_direction, VertexFrame};
+use super::write::value_bytes;
 use super::VertexBakeOptions;
 
 /// Vertices per parallel work item of the pre-pass and the bake (results do not depend on it).

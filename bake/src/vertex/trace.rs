@@ -21,7 +21,7 @@ use glam::Vec3;
 use prt_formats::basis::ShadingBasis;
 use prt_formats::lighting::cubemap::{direction_to_texel, texel_index};
 use prt_formats::lighting::sh::sh_eval;
-use prt_formats::vertex::{cube_len, vertex_frame, SH_TERMS, T1_LIGHT_CUBE, T2_LIGHT_CUBE};
+use prt_formats::vertex::{cube_len, SH_TERMS, T1_LIGHT_CUBE, T2_LIGHT_CUBE};
 
 use crate::integrator::{Integrator, MaterialModel, Slots};
 use crate::pixel::{BakeModel, SlotLayout};
@@ -29,53 +29,12 @@ use crate::sampling::Rng;
 
 use super::direct::DirectCube;
 use super::error::VertexError;
+use super::frame::{first_direction, VertexFrame};
 use super::plan::VertexPlan;
 use super::VertexBakeOptions;
 
 /// Offset of the sample index that keys the w3 stream (above any N1).
 const W3_STREAM: u64 = 1 << 40;
-
-/// A vertex's position, frame (`prt_formats::vertex::vertex_frame`) and ray origin.
-#[derive(Clone, Debug)]
-pub(crate) struct VertexFrame {
-    pub t: Vec3,
-    pub b: Vec3,
-    pub n: Vec3,
-    /// `p + n eps`: where its rays start.
-    pub origin: Vec3,
-}
-
-impl VertexFrame {
-    pub fn new(p: Vec3, n: Vec3, eps: f32) -> VertexFrame {
-        let (t, b) = vertex_frame(n.to_array());
-        VertexFrame {
-            t: Vec3::from_array(t),
-            b: Vec3::from_array(b),
-            n,
-            origin: p + n * eps,
-        }
-    }
-
-    #[inline]
-    pub fn to_world(&self, l: Vec3) -> Vec3 {
-        self.t * l.x + self.b * l.y + self.n * l.z
-    }
-
-    #[inline]
-    pub fn to_local(&self, d: Vec3) -> Vec3 {
-        Vec3::new(d.dot(self.t), d.dot(self.b), d.dot(self.n))
-    }
-}
-
-/// A direction uniform over the local upper hemisphere (pdf 1/(2 pi)); draws 2 numbers.
-#[inline]
-pub(crate) fn first_direction(rng: &mut Rng) -> Vec3 {
-    let u = rng.next_vec2();
-    let z = u.x;
-    let r = (1.0 - z * z).max(0.0).sqrt();
-    let phi = std::f32::consts::TAU * u.y;
-    Vec3::new(r * phi.cos(), r * phi.sin(), z)
-}
 
 /// The light bin (texel of a cube of side `size`) holding world direction `d`.
 #[inline]

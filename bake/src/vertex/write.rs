@@ -157,3 +157,11 @@ fn writer(bake: &VertexBake) -> Result<BakeWriter<'_>, FormatError> {
     w.set_metadata(serde_json::to_value(meta).unwrap_or(serde_json::Value::Null));
     Ok(w)
 }
+
+/// Bytes of one stored T0 value, T1 or T2 value.
+pub(crate) fn value_bytes(p: Precision) -> usize {
+    match p {
+        Precision::F32 => 4,
+        Precision::F16 => 2,
+    }
+}

@@ -22,8 +22,8 @@ use rayon::prelude::*;
 
 use super::constants::ShadingConstants;
 use super::open::Scene;
+use crate::error::RuntimeError;
 use crate::light::LightCoefficients;
-use crate::RuntimeError;
 
 /// Offset of the irradiance `E` (RGB) in a vertex's record.
 pub(super) const E_AT: usize = 0;

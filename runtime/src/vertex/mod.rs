@@ -41,10 +41,10 @@ use prt_formats::view::CameraFrame;
 use prt_formats::BakeFile;
 use rayon::prelude::*;
 
+use crate::error::RuntimeError;
 use crate::light::LightCoefficients;
 use crate::materials::Materials;
 use crate::raster::{eye_verdict, Rasterizer, ViewRays, VisibilityBuffer};
-use crate::RuntimeError;
 use constants::ShadingConstants;
 use incident::{GroupLight, GroupShade, E_AT, I1_AT, I2_AT, U_AT};
 use open::{Scene, NO_GROUP};

@@ -13,8 +13,8 @@ use prt_formats::vertex::{
 };
 use prt_formats::{BakeFile, Dtype};
 
+use crate::error::RuntimeError;
 use crate::light::DIRECT_SIZE;
-use crate::RuntimeError;
 
 /// Marks a vertex that belongs to no group.
 pub(super) const NO_GROUP: u32 = u32::MAX;

@@ -1,0 +1,126 @@
+//! The runtime's error type (its own file so that every module can name it without importing
+//! the crate root, which imports them).
+
+use prt_formats::envmap::EnvMapError;
+use prt_formats::lighting::LightingError;
+use prt_formats::FormatError;
+
+use crate::raster::RasterError;
+
+/// Why a bake file could not be opened for relighting, or an edit or render was refused.
+#[derive(Debug, thiserror::Error)]
+pub enum RuntimeError {
+    /// The container itself is unreadable or corrupt (see [`FormatError`]).
+    #[error(transparent)]
+    Format(#[from] FormatError),
+    /// The file is a valid container but not a consistent per-pixel bake (wrong schema
+    /// version, metadata or tensor shapes).
+    #[error("{path}: not a per-pixel bake file: {reason}")]
+    Schema {
+        /// The bake file, as given.
+        path: String,
+        /// What is inconsistent.
+        reason: String,
+    },
+    /// An edit names a material the bake does not have.
+    #[error("unknown material '{name}'; the bake has: {available}")]
+    UnknownMaterial {
+        /// The material name.
+        name: String,
+        /// The bake's material names, comma-separated.
+        available: String,
+    },
+    /// An edit names a material that was not marked editable when baking.
+    #[error("material '{name}' is not editable in this bake (editable: {editable})")]
+    NotEditable {
+        /// The material name.
+        name: String,
+        /// The editable materials, comma-separated.
+        editable: String,
+    },
+    /// An edit sets a parameter the material's family does not have (e.g. `alpha` of a
+    /// Blinn-Phong material).
+    #[error("material '{name}' is {family}: it has no parameter '{param}'")]
+    WrongParam {
+        /// The material name.
+        name: String,
+        /// The material's BRDF family (`blinn-phong`, `ggx`, ...).
+        family: String,
+        /// The parameter given.
+        param: String,
+    },
+    /// [`Variant::Compressed`] was requested from a bake without a compressed variant.
+    #[error("this bake file has no compressed variant (bake with a compression rank)")]
+    NoCompressed,
+    /// The file is a bake of the other kind (per-pixel opened as per-vertex, or the reverse).
+    #[error("{path} is a {kind} bake, not a {expected} one: {hint}")]
+    WrongKind {
+        /// The bake file, as given.
+        path: String,
+        /// The kind the file is (`per-pixel`, `per-vertex`).
+        kind: &'static str,
+        /// The kind the caller reads.
+        expected: &'static str,
+        /// What to use instead.
+        hint: &'static str,
+    },
+    /// The file is a valid container but not a consistent per-vertex bake (wrong schema
+    /// version, metadata, tensor types or shapes, indices out of range); the reason names the
+    /// tensor or field.
+    #[error("{path}: not a consistent per-vertex bake file: {reason}")]
+    VertexSchema {
+        /// The bake file, as given.
+        path: String,
+        /// What is inconsistent.
+        reason: String,
+    },
+    /// Parameters set programmatically are not usable (negative or non-finite).
+    #[error("material '{name}': {reason}")]
+    BadParams {
+        /// The material name.
+        name: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// The image size or the camera cannot be rendered (zero or non-finite field of view,
+    /// non-finite frame, ...).
+    #[error(transparent)]
+    Raster(#[from] RasterError),
+    /// The camera's eye is inside an object (the rule the baker applies to a view,
+    /// [`prt_formats::view::judge_eye`]).
+    #[error(
+        "the eye ({}, {}, {}) is inside '{material}': {back} of {total} directions from it \
+         meet the back of a surface first; place the camera outside the object",
+        eye[0], eye[1], eye[2]
+    )]
+    EyeInside {
+        /// The eye position.
+        eye: [f32; 3],
+        /// The material most seen from behind.
+        material: String,
+        /// Directions meeting a back side first.
+        back: usize,
+        /// Directions traced.
+        total: usize,
+    },
+    /// An environment map handed over in memory is unusable (empty, wrong texel count,
+    /// NaN or infinite texels, ...).
+    #[error("environment map: {0}")]
+    Environment(#[from] EnvMapError),
+    /// The environment could not be turned into light coefficients (a non-finite rotation,
+    /// a split width the prefilter refuses).
+    #[error("environment: {0}")]
+    Lighting(#[from] LightingError),
+    /// The output buffer does not hold `width * height` RGB pixels.
+    #[error("output buffer holds {got} floats; a {width}x{height} RGB image needs {expected}")]
+    OutputSize {
+        /// Image width.
+        width: u32,
+        /// Image height.
+        height: u32,
+        /// Floats needed (`3 * width * height`).
+        expected: usize,
+        /// Floats given.
+        got: usize,
+    },
+}
