@@ -4,13 +4,13 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-fn scenes() -> PathBuf {
+pub(crate) fn scenes() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes")
 }
 
 /// Runs `bin` with `args`; asserts a failure whose stderr has an `error:` line containing
 /// every string of `expect`, and that `out` was not created.
-fn fails(bin: &str, args: &[&str], expect: &[&str], out: &Path) {
+pub(crate) fn fails(bin: &str, args: &[&str], expect: &[&str], out: &Path) {
     let o = Command::new(bin).args(args).output().expect("spawn");
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(
@@ -37,7 +37,7 @@ fn fails(bin: &str, args: &[&str], expect: &[&str], out: &Path) {
     );
 }
 
-fn s(p: &Path) -> &str {
+pub(crate) fn s(p: &Path) -> &str {
     p.to_str().expect("utf-8 path")
 }
 

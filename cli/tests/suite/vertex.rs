@@ -4,46 +4,14 @@
 //! `error:` line naming the problem, nothing written.
 
 use std::path::{Path, PathBuf};
+
+use crate::bad_input::{fails, s, scenes};
 use std::process::Command;
 
 use serde_json::Value;
 
 const BAKE: &str = env!("CARGO_BIN_EXE_bake");
 const RELIGHT: &str = env!("CARGO_BIN_EXE_relight");
-
-fn scenes() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes")
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().expect("utf-8 path")
-}
-
-/// Runs `bin` with `args`; asserts a failure with one `error:` line containing every string of
-/// `expect`, and that `out` was not created.
-fn fails(bin: &str, args: &[&str], expect: &[&str], out: &Path) {
-    let o = Command::new(bin).args(args).output().expect("spawn");
-    let stderr = String::from_utf8_lossy(&o.stderr);
-    assert!(!o.status.success(), "{bin} {args:?} succeeded: {stderr}");
-    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
-    assert_eq!(
-        errors.len(),
-        1,
-        "{bin} {args:?}: want one error line: {stderr}"
-    );
-    for e in expect {
-        assert!(
-            errors[0].contains(e),
-            "{bin} {args:?}: error line does not name '{e}': {}",
-            errors[0]
-        );
-    }
-    assert!(
-        !out.exists(),
-        "{bin} {args:?} failed but wrote {}",
-        out.display()
-    );
-}
 
 /// A vertex config for vitrine with every material diffuse (no shading basis to build, so the
 /// bake takes seconds), written next to the scene's own files in `dir`.
