@@ -11,6 +11,7 @@ use super::grid::lobe_vectors;
 use super::tucker::SPLIT_WIDTHS_DEG;
 use crate::brdf::Family;
 use prt_formats::basis::HemiGrid;
+use rayon::prelude::*;
 use std::f64::consts::{FRAC_PI_2, TAU};
 
 /// Most sub-samples per cell axis (reached only across the plane of incidence at grazing
@@ -62,6 +63,7 @@ pub fn cell_averages(
 ) {
     let (nt, np) = (dirs.n_theta, dirs.n_phi);
     let dphi = TAU / np as f64;
+    let mut phis = [(0.0, 0.0); MAX_SUBDIV];
     for j in 0..nt {
         let (z_hi, z_lo) = (1.0 - j as f64 / nt as f64, 1.0 - (j + 1) as f64 / nt as f64);
         let (ta, tb) = (z_hi.clamp(-1.0, 1.0).acos(), z_lo.clamp(-1.0, 1.0).acos());
@@ -77,6 +79,10 @@ pub fn cell_averages(
             let target = 0.25 * width.max(angle(c, peak) - radius);
             let sub = |ext: f64, target: f64| ((ext / target).ceil() as usize).clamp(1, MAX_SUBDIV);
             let (mt, mp) = (sub(tb - ta, target), sub(dphi * tb.sin(), target * squeeze));
+            // the sub-samples' azimuths are the same on every theta row: (sin, cos) once
+            for (q, sc) in phis[..mp].iter_mut().enumerate() {
+                *sc = (pa + dphi * (q as f64 + 0.5) / mp as f64).sin_cos();
+            }
             let mut sum = 0.0;
             for s in 0..mt {
                 let t0 = ta + (tb - ta) * s as f64 / mt as f64;
@@ -84,8 +90,10 @@ pub fn cell_averages(
                 // a single theta sample sits at the node (the ring's area midpoint)
                 let tm = if mt == 1 { zc.acos() } else { 0.5 * (t0 + t1) };
                 let area = (t0.cos() - t1.cos()) * dphi / mp as f64;
-                for q in 0..mp {
-                    let w = unit(tm, pa + dphi * (q as f64 + 0.5) / mp as f64);
+                let (st, ct) = tm.sin_cos();
+                for &(sp, cp) in &phis[..mp] {
+                    // unit(tm, phi)
+                    let w = [st * cp, st * sp, ct];
                     sum += f(w) * w[2] * area;
                 }
             }
@@ -114,38 +122,52 @@ pub fn cell_average_row(family: Family, p: f64, wo: [f64; 3], dirs: &HemiGrid, o
     );
 }
 
-/// The split's profiles as cell averages, scaled like the tensor (`[o][k][i]`, times
-/// `sqrt(cos dw)` of both directions): the Gaussians `exp(-a^2 / (2 sigma^2))` of
-/// [`SPLIT_WIDTHS_DEG`] about the mirror direction of node `o`, averaged over the cells like
-/// the lobe they are fitted to; width 0 stays the unit spike on the node nearest to the mirror
+/// The split's profiles about the mirror direction of node `o` as cell averages, scaled like
+/// the tensor (`[k][i]` into `out`, times `sqrt(cos dw)` of both directions): the Gaussians
+/// `exp(-a^2 / (2 sigma^2))` of [`SPLIT_WIDTHS_DEG`], averaged over the cells like the lobe
+/// they are fitted to; width 0 stays the unit spike on the node nearest to the mirror
 /// direction (the mirror image of a node is a node when `n_phi` is even).
+pub fn cell_average_profile(dirs: &HemiGrid, dir_scale: &[f64], o: usize, out: &mut [f64]) {
+    let nd = dirs.len();
+    let dv = |n: usize| dirs.dir(n);
+    let wo = dv(o);
+    let r = [-wo[0], -wo[1], wo[2]];
+    for (k, &deg) in SPLIT_WIDTHS_DEG.iter().enumerate() {
+        let prof = &mut out[k * nd..][..nd];
+        if deg == 0.0 {
+            prof.fill(0.0);
+            // the last of the largest cosines (as `max_by` picks)
+            let (mut nearest, mut best) = (0, f64::NEG_INFINITY);
+            for n in 0..nd {
+                let d = dv(n);
+                let c = d[0] * r[0] + d[1] * r[1] + d[2] * r[2];
+                if c.total_cmp(&best).is_ge() {
+                    (nearest, best) = (n, c);
+                }
+            }
+            prof[nearest] = 1.0;
+        } else {
+            let sigma = deg.to_radians();
+            let gauss = |w: [f64; 3]| {
+                let a = angle(w, r);
+                (-a * a / (2.0 * sigma * sigma)).exp()
+            };
+            cell_averages(dirs, r, sigma, 1.0, gauss, prof);
+        }
+        for (v, si) in prof.iter_mut().zip(dir_scale) {
+            *v *= si * dir_scale[o];
+        }
+    }
+}
+
+/// [`cell_average_profile`] of every node, `[o][k][i]` (computed in parallel, each
+/// independently).
 pub fn cell_average_profiles(dirs: &HemiGrid, dir_scale: &[f64]) -> Vec<f64> {
     let nd = dirs.len();
     let nk = SPLIT_WIDTHS_DEG.len();
-    let dv: Vec<[f64; 3]> = (0..nd).map(|n| dirs.dir(n)).collect();
     let mut g = vec![0.0; nd * nk * nd];
-    for o in 0..nd {
-        let r = [-dv[o][0], -dv[o][1], dv[o][2]];
-        for (k, &deg) in SPLIT_WIDTHS_DEG.iter().enumerate() {
-            let prof = &mut g[(o * nk + k) * nd..][..nd];
-            if deg == 0.0 {
-                let dot = |d: &[f64; 3]| d[0] * r[0] + d[1] * r[1] + d[2] * r[2];
-                let nearest = (0..nd)
-                    .max_by(|&a, &b| dot(&dv[a]).total_cmp(&dot(&dv[b])))
-                    .unwrap_or(0);
-                prof[nearest] = 1.0;
-            } else {
-                let sigma = deg.to_radians();
-                let gauss = |w: [f64; 3]| {
-                    let a = angle(w, r);
-                    (-a * a / (2.0 * sigma * sigma)).exp()
-                };
-                cell_averages(dirs, r, sigma, 1.0, gauss, prof);
-            }
-            for (v, si) in prof.iter_mut().zip(dir_scale) {
-                *v *= si * dir_scale[o];
-            }
-        }
-    }
+    g.par_chunks_mut(nk * nd)
+        .enumerate()
+        .for_each(|(o, out)| cell_average_profile(dirs, dir_scale, o, out));
     g
 }

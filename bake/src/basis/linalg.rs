@@ -9,7 +9,7 @@ use faer::linalg::qr::no_pivoting::factor::{
     qr_in_place, qr_in_place_scratch, recommended_block_size,
 };
 use faer::linalg::svd::{svd, svd_scratch, ComputeSvdVectors};
-use faer::{Accum, Mat, MatRef, Par};
+use faer::{c64, Accum, Mat, MatMut, MatRef, Par};
 
 /// Clears the upper halves of the AVX registers (`vzeroupper`). faer's SIMD kernels can
 /// return with them dirty; afterwards every SSE instruction in the thread (and in threads it
@@ -121,6 +121,132 @@ pub fn sym_eig_desc(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), BasisErr
     Ok((vals, vecs))
 }
 
+/// Eigendecomposition of a Hermitian matrix (lower triangle read); eigenvalues in
+/// *nonincreasing* order with the matching eigenvector columns.
+fn herm_eig_desc(a: MatRef<'_, c64>) -> Result<(Vec<f64>, Mat<c64>), BasisError> {
+    let n = a.nrows();
+    let mut u = Mat::<c64>::zeros(n, n);
+    let mut s = Diag::<c64>::zeros(n);
+    if n == 0 {
+        return Ok((Vec::new(), u));
+    }
+    let req =
+        self_adjoint_evd_scratch::<c64>(n, ComputeEigenvectors::Yes, Par::Seq, Default::default());
+    let mut buf = MemBuffer::new(req);
+    let r = self_adjoint_evd(
+        a,
+        s.as_mut(),
+        Some(u.as_mut()),
+        Par::Seq,
+        MemStack::new(&mut buf),
+        Default::default(),
+    )
+    .map_err(|e| BasisError::Eigen(format!("{e:?}")));
+    clear_simd_upper_state();
+    r?;
+    let vals: Vec<f64> = (0..n).rev().map(|i| s[i].re).collect();
+    let vecs = Mat::from_fn(n, n, |i, j| u[(i, n - 1 - j)]);
+    Ok((vals, vecs))
+}
+
+/// Eigendecomposition of a symmetric **block-circulant** matrix of `nb x nb` blocks of size
+/// `np`, `G((j, k), (l, m)) = rows(j, l np + (m - k mod np))` (index `(j, k)` = `j np + k`),
+/// given its rows `(j, 0)` (`rows`: `nb x nb np`). Eigenvalues nonincreasing, eigenvectors
+/// real and orthonormal (columns), each sign-fixed by [`fix_sign`].
+///
+/// The discrete Fourier transform over `k` block-diagonalizes `G`: for frequency `f` the
+/// vectors `a_l e^{i theta m}` (`theta = 2 pi f / np`) map to `(B_f a)_j e^{i theta k}` with
+/// the Hermitian `nb x nb` block `B_f(j, l) = sum_d rows(j, l np + d) e^{i theta d}`
+/// (symmetrized, `(B_f + B_f^H) / 2`, so rounding in `rows` cannot break the symmetry). So
+/// `nb np` eigenpairs come from `np / 2 + 1` small eigenproblems: frequencies 0 and `np / 2`
+/// give real vectors `a_l (+-1)^m / sqrt(np)`, every other `f < np / 2` gives a pair of equal
+/// eigenvalues with the vectors `sqrt(2 / np) (Re, Im)(a_l e^{i theta m})` (the phase of `a`
+/// fixed so that its largest component is real and positive: the cosine part peaks at column
+/// 0). Ties are ordered by frequency, then cosine before sine.
+pub fn block_circulant_eig(
+    rows: MatRef<'_, f64>,
+    np: usize,
+) -> Result<(Vec<f64>, Mat<f64>), BasisError> {
+    let nb = rows.nrows();
+    let n = nb * np;
+    assert_eq!(rows.ncols(), n);
+    let angle = |q: usize| std::f64::consts::TAU * (q % np) as f64 / np as f64;
+    let trig: Vec<(f64, f64)> = (0..np).map(|q| angle(q).sin_cos()).collect();
+    // (eigenvalue, frequency, index within it, 0 = cos / 1 = sin, the block's vector)
+    let mut pairs: Vec<(f64, usize, usize, usize, Vec<c64>)> = Vec::with_capacity(n);
+    for f in 0..=np / 2 {
+        let b = Mat::<c64>::from_fn(nb, nb, |j, l| {
+            let mut acc = c64::new(0.0, 0.0);
+            for d in 0..np {
+                let (si, co) = trig[(f * d) % np];
+                acc += c64::new(co, si) * rows[(j, l * np + d)];
+            }
+            acc
+        });
+        let b = Mat::<c64>::from_fn(nb, nb, |j, l| (b[(j, l)] + b[(l, j)].conj()) * 0.5);
+        let real = f == 0 || 2 * f == np;
+        let (vals, vecs) = if real {
+            let br = Mat::<f64>::from_fn(nb, nb, |j, l| b[(j, l)].re);
+            let (v, u) = sym_eig_desc(br.as_ref())?;
+            (
+                v,
+                Mat::<c64>::from_fn(nb, nb, |j, l| c64::new(u[(j, l)], 0.0)),
+            )
+        } else {
+            herm_eig_desc(b.as_ref())?
+        };
+        for (idx, &lambda) in vals.iter().enumerate() {
+            let mut a: Vec<c64> = (0..nb).map(|l| vecs[(l, idx)]).collect();
+            // phase: the largest component (the first on ties) real and positive
+            let mut big = 0;
+            for l in 0..nb {
+                if a[l].norm() > a[big].norm() {
+                    big = l;
+                }
+            }
+            let m = a[big].norm();
+            if m > 0.0 {
+                let ph = a[big].conj() / m;
+                for x in a.iter_mut() {
+                    *x *= ph;
+                }
+            }
+            let parts = if real { 1 } else { 2 };
+            for part in 0..parts {
+                pairs.push((lambda, f, idx, part, a.clone()));
+            }
+        }
+    }
+    pairs.sort_by(|x, y| {
+        y.0.total_cmp(&x.0)
+            .then(x.1.cmp(&y.1))
+            .then(x.2.cmp(&y.2))
+            .then(x.3.cmp(&y.3))
+    });
+    let mut u = Mat::<f64>::zeros(n, n);
+    let mut col = vec![0.0; n];
+    for (c, (_, f, _, part, a)) in pairs.iter().enumerate() {
+        let real = *f == 0 || 2 * f == np;
+        let scale = if real {
+            1.0 / (np as f64).sqrt()
+        } else {
+            (2.0 / np as f64).sqrt()
+        };
+        for (l, al) in a.iter().enumerate() {
+            for m in 0..np {
+                let (si, co) = trig[(f * m) % np];
+                let e = *al * c64::new(co, si);
+                col[l * np + m] = scale * if *part == 0 { e.re } else { e.im };
+            }
+        }
+        fix_sign(&mut col);
+        for (i, &x) in col.iter().enumerate() {
+            u[(i, c)] = x;
+        }
+    }
+    Ok((pairs.iter().map(|p| p.0).collect(), u))
+}
+
 /// `C = A B` computed sequentially.
 pub fn matmul(a: MatRef<'_, f64>, b: MatRef<'_, f64>) -> Mat<f64> {
     let mut c = Mat::<f64>::zeros(a.nrows(), b.ncols());
@@ -135,6 +261,90 @@ pub fn matmul_tn(a: MatRef<'_, f64>, b: MatRef<'_, f64>) -> Mat<f64> {
     faer::linalg::matmul::matmul(c.as_mut(), Accum::Replace, a.transpose(), b, 1.0, Par::Seq);
     clear_simd_upper_state();
     c
+}
+
+/// `C = A B` (`accum` = [`Accum::Replace`]) or `C += A B` ([`Accum::Add`]) into a given
+/// matrix view, computed sequentially.
+pub fn matmul_into(c: MatMut<'_, f64>, accum: Accum, a: MatRef<'_, f64>, b: MatRef<'_, f64>) {
+    faer::linalg::matmul::matmul(c, accum, a, b, 1.0, Par::Seq);
+    clear_simd_upper_state();
+}
+
+/// Leading `r` eigenvectors (columns, eigenvalues nonincreasing) of a symmetric matrix, each
+/// sign-fixed by [`fix_sign`].
+pub fn leading_eigvecs(g: MatRef<'_, f64>, r: usize) -> Result<Mat<f64>, BasisError> {
+    let (_, v) = sym_eig_desc(g)?;
+    let r = r.min(v.ncols());
+    let mut u = Mat::<f64>::zeros(v.nrows(), r);
+    let mut col = vec![0.0; v.nrows()];
+    for c in 0..r {
+        for (i, x) in col.iter_mut().enumerate() {
+            *x = v[(i, c)];
+        }
+        fix_sign(&mut col);
+        for (i, &x) in col.iter().enumerate() {
+            u[(i, c)] = x;
+        }
+    }
+    Ok(u)
+}
+
+/// Leading `r` left singular vectors of `w` (`m x n`), sign-fixed by [`fix_sign`]: the leading
+/// eigenvectors of the Gram matrix `w w^T` (`m x m`), or, when `w` is tall (`n < m`) and its
+/// leading `r` singular values are clearly nonzero, those of the small Gram matrix `w^T w`
+/// (`n x n`) mapped back, `u_k = w v_k / sigma_k`, and re-orthonormalized (two passes of
+/// Gram-Schmidt). The two agree to rounding wherever the singular values are distinct.
+pub fn leading_left_vectors(w: MatRef<'_, f64>, r: usize) -> Result<Mat<f64>, BasisError> {
+    let (m, n) = w.shape();
+    let r = r.min(m);
+    if n < m && r <= n && r > 0 {
+        let g = matmul_tn(w, w);
+        let (vals, v) = sym_eig_desc(g.as_ref())?;
+        // sigma_k^2 well above the Gram matrix's rounding (relative 1e-12 keeps sigma_k above
+        // 1e-6 sigma_0, where w v_k / sigma_k still carries eight good digits)
+        if vals[0] > 0.0 && vals[r - 1] > 1e-12 * vals[0] {
+            let mut u = matmul(w, v.get(.., ..r));
+            for (c, &l) in vals[..r].iter().enumerate() {
+                let inv = 1.0 / l.sqrt();
+                for i in 0..m {
+                    u[(i, c)] *= inv;
+                }
+            }
+            let mut cols: Vec<Vec<f64>> = (0..r)
+                .map(|c| (0..m).map(|i| u[(i, c)]).collect())
+                .collect();
+            orthonormalize(&mut cols);
+            for c in cols.iter_mut() {
+                fix_sign(c);
+            }
+            return Ok(Mat::from_fn(m, r, |i, c| cols[c][i]));
+        }
+    }
+    let g = matmul(w, w.transpose());
+    leading_eigvecs(g.as_ref(), r)
+}
+
+/// Two passes of modified Gram-Schmidt over `cols` in order (columns already nearly
+/// orthonormal stay where they are to rounding).
+fn orthonormalize(cols: &mut [Vec<f64>]) {
+    for _ in 0..2 {
+        for c in 0..cols.len() {
+            let (done, rest) = cols.split_at_mut(c);
+            let v = &mut rest[0];
+            for q in done.iter() {
+                let d: f64 = q.iter().zip(v.iter()).map(|(a, b)| a * b).sum();
+                for (x, y) in v.iter_mut().zip(q) {
+                    *x -= d * y;
+                }
+            }
+            let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+            if norm > 0.0 {
+                for x in v.iter_mut() {
+                    *x /= norm;
+                }
+            }
+        }
+    }
 }
 
 /// Sign convention for a vector: flip it so that its largest-magnitude component (the first
@@ -176,5 +386,79 @@ mod tests {
         for (x, y) in s.iter().zip(&l) {
             assert!((x * x - y).abs() < 1e-8 * l[0]);
         }
+    }
+
+    /// The block-circulant eigensolver agrees with the dense one: same eigenvalues, and its
+    /// vectors are orthonormal eigenvectors of the full matrix.
+    #[test]
+    fn block_circulant_eig_matches_dense() {
+        for np in [6, 7] {
+            let nb = 3;
+            let n = nb * np;
+            // G = sum of x x^T over vectors rotated in k: symmetric block circulant
+            let base: Vec<Vec<f64>> = (0..4)
+                .map(|s| {
+                    (0..n)
+                        .map(|i| ((i * (s + 2)) as f64 * 0.71).sin())
+                        .collect()
+                })
+                .collect();
+            let mut g = Mat::<f64>::zeros(n, n);
+            for v in &base {
+                for k in 0..np {
+                    let rot = |i: usize| v[(i / np) * np + (i % np + np - k) % np];
+                    for a in 0..n {
+                        for b in 0..n {
+                            g[(a, b)] += rot(a) * rot(b);
+                        }
+                    }
+                }
+            }
+            let rows = Mat::from_fn(nb, n, |j, q| g[(j * np, q)]);
+            let (vals, u) = block_circulant_eig(rows.as_ref(), np).unwrap();
+            let (want, _) = sym_eig_desc(g.as_ref()).unwrap();
+            for (x, y) in vals.iter().zip(&want) {
+                assert!((x - y).abs() < 1e-10 * want[0], "{np}: {x} {y}");
+            }
+            let gu = matmul(g.as_ref(), u.as_ref());
+            let utu = matmul_tn(u.as_ref(), u.as_ref());
+            for c in 0..n {
+                for i in 0..n {
+                    assert!((gu[(i, c)] - vals[c] * u[(i, c)]).abs() < 1e-10 * want[0]);
+                    let id = if i == c { 1.0 } else { 0.0 };
+                    assert!((utu[(i, c)] - id).abs() < 1e-12);
+                }
+            }
+        }
+    }
+
+    /// The small-Gram path of `leading_left_vectors` (tall matrices) gives the left singular
+    /// vectors of the large one, orthonormal.
+    #[test]
+    fn leading_left_vectors_small_and_large_gram_agree() {
+        let w = Mat::from_fn(40, 5, |i, j| {
+            ((i * (j + 3)) as f64 * 0.37).sin() + 0.1 * j as f64
+        });
+        let small = leading_left_vectors(w.as_ref(), 3).unwrap();
+        let large = leading_eigvecs(matmul(w.as_ref(), w.transpose()).as_ref(), 3).unwrap();
+        let (u, _, _) = svd_thin(w.as_ref()).unwrap();
+        for c in 0..3 {
+            let mut col: Vec<f64> = (0..40).map(|i| u[(i, c)]).collect();
+            fix_sign(&mut col);
+            for i in 0..40 {
+                assert!((small[(i, c)] - col[i]).abs() < 1e-10, "{c} {i}");
+                assert!((large[(i, c)] - col[i]).abs() < 1e-10, "{c} {i}");
+            }
+        }
+        let g = matmul_tn(small.as_ref(), small.as_ref());
+        for a in 0..3 {
+            for b in 0..3 {
+                let want = if a == b { 1.0 } else { 0.0 };
+                assert!((g[(a, b)] - want).abs() < 1e-14);
+            }
+        }
+        // more vectors than the rank: the large Gram path (null-space vectors)
+        let all = leading_left_vectors(w.as_ref(), 8).unwrap();
+        assert_eq!(all.ncols(), 8);
     }
 }

@@ -14,9 +14,10 @@
 
 use super::cells::{cell_average_row, cell_averages};
 use super::grid::lobe_vectors;
-use super::tucker::{profile_gram, split_fibre, BrdfTensor, SpecularSplit, SPLIT_WIDTHS_DEG};
+use super::tucker::{profile_gram, split_fibre, RingSplit, RingTensor, SPLIT_WIDTHS_DEG};
 use faer::Mat;
 use prt_formats::basis::TuckerRanks;
+use rayon::prelude::*;
 
 const NORMAL: [f64; 3] = [0.0, 0.0, 1.0];
 
@@ -35,7 +36,7 @@ pub struct PoleParts {
 
 impl PoleParts {
     /// Samples and splits the fibres through the pole of `tensor` (whose split is `split`).
-    pub fn new(tensor: &BrdfTensor, split: &SpecularSplit) -> PoleParts {
+    pub fn new(tensor: &RingTensor, split: &RingSplit) -> PoleParts {
         let dirs = tensor.dirs;
         let (nh, nd, _) = tensor.dims();
         let nk = SPLIT_WIDTHS_DEG.len();
@@ -63,41 +64,48 @@ impl PoleParts {
         let s = &tensor.dir_scale;
         let scaled: Vec<f64> = (0..nk * nd).map(|n| prof[n] * s[n % nd]).collect();
         let gram = profile_gram(&scaled, nk);
-        let mut lobe = vec![0.0; nh * nd];
-        let mut residual = vec![0.0; nh * nd];
-        let mut reflectances = vec![0.0; nh * nk];
-        let mut column = vec![0.0; nh * nd];
-        let mut row = vec![0.0; nd];
         let sigma: Vec<f64> = SPLIT_WIDTHS_DEG.iter().map(|d| d.to_radians()).collect();
-        for h in 0..nh {
-            let p = tensor.params[h];
-            let family = tensor.spec.family;
-            cell_average_row(family, p, NORMAL, &dirs, &mut row);
-            lobe[h * nd..(h + 1) * nd].copy_from_slice(&row);
-            let mut y: Vec<f64> = row.iter().zip(s).map(|(v, si)| v * si).collect();
-            let a = split_fibre(&mut y, &scaled, &gram, nk);
-            for i in 0..nd {
-                residual[h * nd + i] = if s[i] > 0.0 { y[i] / s[i] } else { 0.0 };
-            }
-            for k in 0..nk {
-                reflectances[h * nk + k] = a[k] * mass[k];
-            }
-            // wi on the normal: the lobe minus the Gaussians fitted about each node's mirror
-            // direction (the spike sits on a node, never on the normal)
-            let ls = tensor.lobe_scale[h];
-            for o in 0..nd {
-                let wo = dirs.dir(o);
-                let angle = wo[2].clamp(-1.0, 1.0).acos();
-                let mut v = lobe_vectors(family, p, NORMAL, wo);
-                for (k, sg) in sigma.iter().enumerate().skip(1) {
-                    let amp = split.amplitudes[(h * nd + o) * nk + k];
-                    if ls > 0.0 {
-                        v -= amp / ls * (-angle * angle / (2.0 * sg * sg)).exp();
-                    }
-                }
-                column[h * nd + o] = v;
-            }
-        }
+        let family = tensor.spec.family;
+        // per parameter sample (in parallel, each independently): lobe, residual,
+        // reflectances, column
+        type Rows = (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>);
+        let rows: Vec<Rows> = (0..nh)
+            .into_par_iter()
+            .map(|h| {
+                let p = tensor.params[h];
+                let mut row = vec![0.0; nd];
+                cell_average_row(family, p, NORMAL, &dirs, &mut row);
+                let mut y: Vec<f64> = row.iter().zip(s).map(|(v, si)| v * si).collect();
+                let a = split_fibre(&mut y, &scaled, &gram, nk);
+                let residual: Vec<f64> = (0..nd)
+                    .map(|i| if s[i] > 0.0 { y[i] / s[i] } else { 0.0 })
+                    .collect();
+                let refl: Vec<f64> = (0..nk).map(|k| a[k] * mass[k]).collect();
+                // wi on the normal: the lobe minus the Gaussians fitted about each node's
+                // mirror direction (the spike sits on a node, never on the normal)
+                let ls = tensor.lobe_scale[h];
+                let column: Vec<f64> = (0..nd)
+                    .map(|o| {
+                        let wo = dirs.dir(o);
+                        let angle = wo[2].clamp(-1.0, 1.0).acos();
+                        let mut v = lobe_vectors(family, p, NORMAL, wo);
+                        for (k, sg) in sigma.iter().enumerate().skip(1) {
+                            let amp = split.amplitudes[(h * nd + o) * nk + k];
+                            if ls > 0.0 {
+                                v -= amp / ls * (-angle * angle / (2.0 * sg * sg)).exp();
+                            }
+                        }
+                        v
+                    })
+                    .collect();
+                (row, residual, refl, column)
+            })
+            .collect();
+        let cat = |f: fn(&Rows) -> &Vec<f64>| -> Vec<f64> {
+            rows.iter().flat_map(|r| f(r).iter().copied()).collect()
+        };
+        let (lobe, residual) = (cat(|r| &r.0), cat(|r| &r.1));
+        let (reflectances, column) = (cat(|r| &r.2), cat(|r| &r.3));
         PoleParts {
             lobe,
             residual,

@@ -14,7 +14,7 @@
 //! accuracy), so the energy the split and the residual share is the lobe's. Cells near the
 //! mirror direction are sub-sampled finely (adaptively, see [`cell_average_row`]); far cells
 //! keep one sample at their node, which is the point value. The split's Gaussians are cell
-//! averages too ([`cell_average_profiles`]), so the fit compares like with like; the spike is
+//! averages too ([`cell_average_profile`]), so the fit compares like with like; the spike is
 //! the report's, a unit on the mirror node.
 //!
 //! Two additions the report does not need: **pole rows** (the normal has no node; see
@@ -23,12 +23,20 @@
 //! ring of negative values that the Gaussians leave about a sharp lobe's mirror direction, and
 //! loses or gains its energy (GGX alpha = 0.02 at normal incidence: +13 % of the albedo);
 //! the reflectances give it back, so the reconstructed albedo at every node is the lobe's.
+//!
+//! The lobes are isotropic and the grid turns onto itself by one column, so the tensor is
+//! equivariant under those rotations: it is sampled, split and decomposed by its **ring rows**
+//! (the fibres of the first node of every ring; [`RingTensor`], [`hosvd_rings`],
+//! [`tucker_rings`]), `n_phi` times less work than the full tensor, which is never stored.
+//! Every parallel step places its results by index and sums in a fixed order, so the basis is
+//! the same bit for bit on any number of threads.
 
-use super::cells::{cell_average_profiles, cell_average_row};
+use super::cells::{cell_average_profile, cell_average_row};
 use super::error::BasisError;
 use super::pole::{core_i, core_o, fit_row, PoleParts};
 use super::tucker::{
-    hosvd, specular_split_with, tucker, BrdfTensor, SpecularSplit, SPLIT_WIDTHS_DEG,
+    hosvd_rings, ring_offset, specular_split_rings, tucker_rings, RingSplit, RingTensor,
+    SPLIT_WIDTHS_DEG,
 };
 use super::FamilySpec;
 use crate::brdf::Family;
@@ -36,6 +44,7 @@ use prt_formats::basis::{
     BasisError as FormatError, HemiGrid, ShadingBasis, TuckerRanks, MAX_SHADING_PARAMS,
     MAX_SHADING_RANK, SHADING_SCHEMA_VERSION,
 };
+use rayon::prelude::*;
 use std::f64::consts::TAU;
 
 /// Default direction grid of the shading basis: 16 rings x 64 azimuths (1024 directions,
@@ -57,10 +66,12 @@ pub const MAX_TENSOR_VALUES: usize = 1 << 28;
 /// can compare the decomposition with what it decomposes).
 pub struct ShadingParts {
     /// The scaled tensor: cell-averaged over the incident axis ([`cell_average_row`]), scaled
-    /// by `sqrt(cos(theta) dw)` per direction and normalized per lobe, as the report's.
-    pub tensor: BrdfTensor,
-    /// The specular split of `tensor` (amplitudes `[h][o][k]`, the scaled residual).
-    pub split: SpecularSplit,
+    /// by `sqrt(cos(theta) dw)` per direction and normalized per lobe, as the report's; stored
+    /// by its ring rows (the lobe is isotropic, see [`RingTensor`]).
+    pub tensor: RingTensor,
+    /// The specular split of `tensor` (amplitudes `[h][o][k]`, the scaled residual's ring
+    /// rows).
+    pub split: RingSplit,
     /// `[o][k]`: the grid's `sum_i G_k(i) cos(theta_i) dw` of every split profile (cell
     /// averages: the Gaussian's `integral G cos dw` over the hemisphere; for width 0,
     /// `cos(theta) dw` of the cell the spike sits on); amplitude times this over the lobe's
@@ -105,21 +116,29 @@ impl ShadingParts {
             .into());
         }
         let params = super::grid::param_samples(spec.range, spec.warp, n_params);
-        let dv: Vec<[f64; 3]> = (0..nd).map(|n| dirs.dir(n)).collect();
-        let tensor = BrdfTensor::from_rows(spec, params, dirs, |p, o, row| {
-            cell_average_row(spec.family, p, dv[o], &dirs, row)
+        // the lobe is isotropic: only the first node of every ring is sampled and split, the
+        // other outgoing directions are its rotations (exactly: the grid turns onto itself)
+        let tensor = RingTensor::new(spec, params, dirs, |p, o, row| {
+            cell_average_row(spec.family, p, dirs.dir(o), &dirs, row)
         });
         let nk = SPLIT_WIDTHS_DEG.len();
-        let g = cell_average_profiles(&dirs, &tensor.dir_scale);
-        let split = specular_split_with(&tensor, &g);
         let s = &tensor.dir_scale;
+        // the profiles about the first node of every ring, [j][k][i]
+        let mut g = vec![0.0; dirs.n_theta * nk * nd];
+        g.par_chunks_mut(nk * nd)
+            .enumerate()
+            .for_each(|(j, out)| cell_average_profile(&dirs, s, dirs.index(j, 0), out));
+        let split = specular_split_rings(&tensor, &g);
         let mut profile_mass = vec![0.0; nd * nk];
         for o in 0..nd {
+            let j = o / dirs.n_phi;
+            let o0 = dirs.index(j, 0);
             for k in 0..nk {
-                let prof = &g[(o * nk + k) * nd..][..nd];
-                // profile = G s_i s_o, so G cos_i dw = profile s_i / s_o
+                let prof = &g[(j * nk + k) * nd..][..nd];
+                // profile = G s_i s_o, so G cos_i dw = profile s_i / s_o (node o's profile is
+                // the ring's first one turned, with the same sum)
                 let m: f64 = prof.iter().zip(s).map(|(x, si)| x * si).sum();
-                profile_mass[o * nk + k] = m / s[o];
+                profile_mass[o * nk + k] = m / s[o0];
             }
         }
         let pole = PoleParts::new(&tensor, &split);
@@ -143,14 +162,14 @@ impl ShadingParts {
 
     /// The sampled lobe `F(h, o, i)` in raw units (1/sr).
     pub fn raw_lobe(&self, h: usize, o: usize, i: usize) -> f64 {
-        let nd = self.tensor.dirs.len();
-        self.unscale(h, o, i, self.tensor.data[(h * nd + o) * nd + i])
+        self.unscale(h, o, i, self.tensor.at(h, o, i))
     }
 
     /// The split's residual at `(h, o, i)` in raw units (1/sr).
     pub fn raw_residual(&self, h: usize, o: usize, i: usize) -> f64 {
-        let nd = self.tensor.dirs.len();
-        self.unscale(h, o, i, self.split.residual[(h * nd + o) * nd + i])
+        let d = self.tensor.dirs;
+        let v = self.split.residual[h * d.n_theta * d.len() + ring_offset(d, o, i)];
+        self.unscale(h, o, i, v)
     }
 
     /// Reflectance `R_k(h, o)` of split profile `k`: its amplitude times the profile's mass
@@ -191,10 +210,11 @@ impl ShadingParts {
                 return Err(FormatError::Rank { mode, rank, max }.into());
             }
         }
-        let x = &self.split.residual;
-        let start = hosvd(x, dims)?;
-        let tk = tucker(x, dims, &start, (ranks.h, ranks.o, ranks.i), 8, 1e-4)?;
         let (nh, nd) = (dims.0, dims.1);
+        let x = &self.split.residual;
+        let start = hosvd_rings(x, nh, t.dirs)?;
+        let r3 = (ranks.h, ranks.o, ranks.i);
+        let tk = tucker_rings(x, nh, t.dirs, &start, r3, 8, 1e-4)?;
         let mut u_h = Vec::with_capacity(nh * ranks.h);
         for h in 0..nh {
             let ls = t.lobe_scale[h];
@@ -289,39 +309,65 @@ impl ShadingParts {
         let (nd, nk, r) = (b.n_dirs(), b.n_widths(), b.ranks);
         let dw = b.dirs.solid_angle();
         let zs: Vec<f64> = (0..nd).map(|i| b.dirs.dir(i)[2] * dw).collect();
-        for h in 0..b.n_params() {
-            // the core contracted with U^h(h) and the constant response: a vector over b
-            let mut m = vec![0.0f64; r.o];
-            for a in 0..r.h {
-                let ua = b.u_h[h * r.h + a] as f64;
-                for (bb, mb) in m.iter_mut().enumerate() {
-                    let row = &b.core[(a * r.o + bb) * r.i..][..r.i];
-                    *mb += ua
-                        * row
-                            .iter()
-                            .zip(&ones)
-                            .map(|(d, c)| *d as f64 * c)
-                            .sum::<f64>();
+        // per parameter sample (in parallel, each independently): the truncation's albedo
+        // error at the nodes, then the pole (o = nd)
+        let bb = &*b;
+        let deltas: Vec<Vec<f64>> = (0..bb.n_params())
+            .into_par_iter()
+            .map(|h| {
+                // the core contracted with U^h(h) and the constant response: a vector over b
+                let mut m = vec![0.0f64; r.o];
+                for a in 0..r.h {
+                    let ua = bb.u_h[h * r.h + a] as f64;
+                    for (q, mb) in m.iter_mut().enumerate() {
+                        let row = &bb.core[(a * r.o + q) * r.i..][..r.i];
+                        *mb += ua
+                            * row
+                                .iter()
+                                .zip(&ones)
+                                .map(|(d, c)| *d as f64 * c)
+                                .sum::<f64>();
+                    }
                 }
-            }
-            // the nodes, then the pole (o = nd)
-            for o in 0..=nd {
-                let uo = if o < nd {
-                    &b.u_o[o * r.o..][..r.o]
-                } else {
-                    &b.u_o_pole[..]
-                };
-                let e_tucker: f64 = uo.iter().zip(&m).map(|(u, v)| *u as f64 * v).sum();
-                let e_residual: f64 = (0..nd)
-                    .map(|i| {
-                        let v = if o < nd {
-                            self.raw_residual(h, o, i)
-                        } else {
-                            self.pole.residual[h * nd + i]
-                        };
-                        v * zs[i]
+                // the residual's albedo at the first node of every ring (the others are its
+                // rotations: the same sum), raw_residual(h, o, i) z_i dw over i
+                let t = &self.tensor;
+                let (nt, np) = (t.dirs.n_theta, t.dirs.n_phi);
+                let e_rings: Vec<f64> = (0..nt)
+                    .map(|j| {
+                        let lso = t.lobe_scale[h] * t.dir_scale[t.dirs.index(j, 0)];
+                        let res = &self.split.residual[(h * nt + j) * nd..][..nd];
+                        res.iter()
+                            .zip(&t.dir_scale)
+                            .zip(&zs)
+                            .map(|((v, si), z)| {
+                                let den = lso * si;
+                                (if den > 0.0 { v / den } else { 0.0 }) * z
+                            })
+                            .sum()
                     })
-                    .sum();
+                    .collect();
+                (0..=nd)
+                    .map(|o| {
+                        let uo = if o < nd {
+                            &bb.u_o[o * r.o..][..r.o]
+                        } else {
+                            &bb.u_o_pole[..]
+                        };
+                        let e_tucker: f64 = uo.iter().zip(&m).map(|(u, v)| *u as f64 * v).sum();
+                        let e_residual: f64 = if o < nd {
+                            e_rings[o / np]
+                        } else {
+                            let res = &self.pole.residual[h * nd..][..nd];
+                            res.iter().zip(&zs).map(|(v, z)| v * z).sum()
+                        };
+                        e_tucker - e_residual
+                    })
+                    .collect()
+            })
+            .collect();
+        for (h, delta) in deltas.iter().enumerate() {
+            for (o, d) in delta.iter().enumerate() {
                 let rw = if o < nd {
                     &mut b.reflectances[(h * nd + o) * nk..][..nk]
                 } else {
@@ -329,7 +375,7 @@ impl ShadingParts {
                 };
                 let total: f64 = rw.iter().map(|&v| v as f64).sum();
                 if total > 0.0 {
-                    let scale = (1.0 - (e_tucker - e_residual) / total).clamp(0.0, 4.0);
+                    let scale = (1.0 - d / total).clamp(0.0, 4.0);
                     for v in rw.iter_mut() {
                         *v = to_f32(*v as f64 * scale);
                     }
@@ -392,4 +438,57 @@ pub fn default_shading_basis(family: Family) -> Result<ShadingBasis, BasisError>
     let spec = FamilySpec::default_for(family)?;
     let ranks = TuckerRanks::thesis(family).ok_or(BasisError::DiffuseFamily)?;
     shading_basis(spec, SHADING_PARAMS, SHADING_DIRS, ranks)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every table of a basis as raw bits (so that -0.0 and 0.0, or two NaNs, are told apart).
+    fn bits(b: &ShadingBasis) -> Vec<(&'static str, Vec<u32>)> {
+        let t = |name, v: &[f32]| (name, v.iter().map(|x| x.to_bits()).collect());
+        vec![
+            t("param_samples", &b.param_samples),
+            t("u_h", &b.u_h),
+            t("u_o", &b.u_o),
+            t("u_o_pole", &b.u_o_pole),
+            t("u_i", &b.u_i),
+            t("u_i_pole", &b.u_i_pole),
+            t("core", &b.core),
+            t("reflectances", &b.reflectances),
+            t("reflectances_pole", &b.reflectances_pole),
+        ]
+    }
+
+    /// The build is the same, bit for bit, on 1 and 2 threads: every parallel step places its
+    /// results by index and sums in a fixed order. The grid and sample count are large enough
+    /// that the parallel loops (rows, fits, slabs, product blocks) split into several pieces.
+    #[test]
+    fn build_is_bit_identical_on_1_and_2_threads() {
+        let grid = HemiGrid {
+            n_theta: 8,
+            n_phi: 32,
+        };
+        for family in [Family::Ggx, Family::BlinnPhong] {
+            let spec = FamilySpec::default_for(family).unwrap();
+            let ranks = TuckerRanks { h: 3, o: 6, i: 6 };
+            let run = |threads: usize| {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                pool.install(|| shading_basis(spec, 12, grid, ranks).unwrap())
+            };
+            let (a, b) = (run(1), run(2));
+            assert_eq!(a.method, b.method, "{family:?}");
+            for ((name, x), (_, y)) in bits(&a).into_iter().zip(bits(&b)) {
+                let diff = x.iter().zip(&y).filter(|(p, q)| p != q).count();
+                assert!(
+                    x.len() == y.len() && diff == 0,
+                    "{family:?} {name}: {diff} of {} values differ",
+                    x.len()
+                );
+            }
+        }
+    }
 }

@@ -11,12 +11,15 @@
 
 use super::error::BasisError;
 use super::grid::lobe_f64;
-use super::linalg::{fix_sign, matmul, matmul_tn, sym_eig_desc};
+use super::linalg::{
+    block_circulant_eig, leading_eigvecs, leading_left_vectors, matmul, matmul_into, matmul_tn,
+};
 use super::FamilySpec;
 use crate::brdf::Family;
-use faer::Mat;
+use faer::{Accum, Mat, MatMut, MatRef};
 use rayon::prelude::*;
 use serde::Serialize;
+use std::borrow::Cow;
 
 /// The equal-area hemisphere grid of the tensor's direction modes; it lives in
 /// `prt_formats::basis` because the shading basis persists tables over it.
@@ -101,6 +104,131 @@ impl BrdfTensor {
     }
 }
 
+/// The sampled, scaled tensor of an **isotropic** lobe, stored by its ring rows.
+///
+/// The grid turns onto itself by one column (`2 pi / n_phi` about the normal), cells onto
+/// cells, and an isotropic lobe turns with `wo`; so the tensor is equivariant,
+/// `F(h, (j, k), (j', k')) = F(h, (j, 0), (j', k' - k mod n_phi))`, and the fibres of the first
+/// node of every ring (`n_phi` times fewer than the tensor's) hold all of it. Everything
+/// built from it (the split, [`hosvd_rings`], [`tucker_rings`]) works on those rows and
+/// expands a slab at a time where it needs one; scaled and normalized as [`BrdfTensor`].
+pub struct RingTensor {
+    pub spec: FamilySpec,
+    pub params: Vec<f64>,
+    pub dirs: HemiGrid,
+    /// `[h][j][i]`: the fibres `F(h, (j, 0), .)` (see [`ring_offset`]).
+    pub rings: Vec<f64>,
+    /// Per-direction scale `sqrt(cos(theta) dw)`.
+    pub dir_scale: Vec<f64>,
+    /// Per-lobe normalization applied (1 / cosine-weighted norm).
+    pub lobe_scale: Vec<f64>,
+}
+
+impl RingTensor {
+    /// The tensor whose raw (unscaled) values `F(p, o, .)` over the incident directions are
+    /// written by `row(p, o, out)`, which must be invariant under the grid's rotations (it is
+    /// called for `o` the first node of every ring only). Rows are computed in parallel, each
+    /// independently, so the result does not depend on the thread count.
+    pub fn new(
+        spec: FamilySpec,
+        params: Vec<f64>,
+        dirs: HemiGrid,
+        row: impl Fn(f64, usize, &mut [f64]) + Sync,
+    ) -> RingTensor {
+        let (nd, nt, np) = (dirs.len(), dirs.n_theta, dirs.n_phi);
+        let nh = params.len();
+        let dir_scale: Vec<f64> = (0..nd)
+            .map(|n| (dirs.dir(n)[2] * dirs.solid_angle()).sqrt())
+            .collect();
+        let mut rings = vec![0.0; nh * nt * nd];
+        rings.par_chunks_mut(nd).enumerate().for_each(|(n, r)| {
+            let (h, j) = (n / nt, n % nt);
+            let o = dirs.index(j, 0);
+            row(params[h], o, r);
+            for (v, si) in r.iter_mut().zip(&dir_scale) {
+                *v *= dir_scale[o] * si;
+            }
+        });
+        // every ring row stands for n_phi rows of the slab with the same values
+        let lobe_scale: Vec<f64> = rings
+            .chunks_exact_mut(nt * nd)
+            .map(|slab| {
+                let norm = (np as f64 * slab.iter().map(|x| x * x).sum::<f64>()).sqrt();
+                let sc = if norm > 0.0 { 1.0 / norm } else { 0.0 };
+                for x in slab.iter_mut() {
+                    *x *= sc;
+                }
+                sc
+            })
+            .collect();
+        RingTensor {
+            spec,
+            params,
+            dirs,
+            rings,
+            dir_scale,
+            lobe_scale,
+        }
+    }
+
+    pub fn dims(&self) -> (usize, usize, usize) {
+        (self.params.len(), self.dirs.len(), self.dirs.len())
+    }
+
+    /// `F(h, o, i)`.
+    pub fn at(&self, h: usize, o: usize, i: usize) -> f64 {
+        let d = &self.dirs;
+        self.rings[h * d.n_theta * d.len() + ring_offset(*d, o, i)]
+    }
+
+    /// The full tensor `[h][o][i]` ([`expand_rings`]).
+    pub fn expand(&self) -> Vec<f64> {
+        expand_rings(&self.rings, self.params.len(), self.dirs)
+    }
+}
+
+/// Where `X(h, o, i)` of an equivariant tensor sits in slab `h` of its ring rows (`[j][i]`):
+/// `X(h, (j, k), (j', k')) = rings(h, j, (j', k' - k mod n_phi))`.
+pub fn ring_offset(dirs: HemiGrid, o: usize, i: usize) -> usize {
+    let np = dirs.n_phi;
+    let (j, k) = (o / np, o % np);
+    let (jp, kp) = (i / np, i % np);
+    j * dirs.len() + jp * np + (kp + np - k) % np
+}
+
+/// One slab `[o][i]` of an equivariant tensor from its ring rows `ring` (`[j][i]`): row
+/// `(j, k)` is row `j` turned by `k` columns. Pure copies, so exact.
+pub fn expand_slab(ring: &[f64], dirs: HemiGrid, out: &mut [f64]) {
+    let (nd, np) = (dirs.len(), dirs.n_phi);
+    for (o, row) in out.chunks_exact_mut(nd).enumerate() {
+        let (j, k) = (o / np, o % np);
+        rotate_row(&ring[j * nd..][..nd], k, np, row);
+    }
+}
+
+/// Expands ring rows `[h][j][i]` (the fibres of the first node of every ring) into the full
+/// tensor `[h][o][i]` by rotation: row `(h, (j, k))` is row `(h, j)` turned by `k` columns,
+/// `out(j', k') = row(j', k' - k mod n_phi)`. Pure copies, so exact.
+pub fn expand_rings(ring: &[f64], nh: usize, dirs: HemiGrid) -> Vec<f64> {
+    let (nd, nt) = (dirs.len(), dirs.n_theta);
+    assert_eq!(ring.len(), nh * nt * nd);
+    let mut data = vec![0.0; nh * nd * nd];
+    if nd > 0 {
+        data.par_chunks_mut(nd * nd)
+            .zip(ring.par_chunks(nt * nd))
+            .for_each(|(slab, rows)| expand_slab(rows, dirs, slab));
+    }
+    data
+}
+
+/// `out(j', k') = row(j', k' - k mod n_phi)` over a grid with `np` columns per ring.
+fn rotate_row(row: &[f64], k: usize, np: usize, out: &mut [f64]) {
+    for (src, dst) in row.chunks_exact(np).zip(out.chunks_exact_mut(np)) {
+        dst[k..].copy_from_slice(&src[..np - k]);
+        dst[..k].copy_from_slice(&src[np - k..]);
+    }
+}
+
 fn eval_pair(spec: FamilySpec, p: f64, wo: [f64; 3], wi: [f64; 3]) -> f64 {
     let to = wo[2].clamp(-1.0, 1.0).acos();
     let ti = wi[2].clamp(-1.0, 1.0).acos();
@@ -167,11 +295,16 @@ pub fn split_profiles(dirs: &HemiGrid, dir_scale: &[f64]) -> Vec<f64> {
 fn nnls_small(gg: &[f64], gy: &[f64], k: usize) -> Vec<f64> {
     let mut best = vec![0.0; k];
     let mut best_obj = 0.0; // objective relative to ||y||^2: -2 a.gy + a.gg.a
+    let mut idx = Vec::with_capacity(k);
+    let mut a = Vec::with_capacity(k * (k + 1));
+    let mut x = vec![0.0; k];
     for mask in 1u32..(1 << k) {
-        let idx: Vec<usize> = (0..k).filter(|&j| mask & (1 << j) != 0).collect();
+        idx.clear();
+        idx.extend((0..k).filter(|&j| mask & (1 << j) != 0));
         let m = idx.len();
         // solve the m x m system by Gaussian elimination with partial pivoting
-        let mut a = vec![0.0; m * (m + 1)];
+        a.clear();
+        a.resize(m * (m + 1), 0.0);
         for (r, &jr) in idx.iter().enumerate() {
             for (c, &jc) in idx.iter().enumerate() {
                 a[r * (m + 1) + c] = gg[jr * k + jc];
@@ -206,7 +339,7 @@ fn nnls_small(gg: &[f64], gy: &[f64], k: usize) -> Vec<f64> {
         if !ok {
             continue;
         }
-        let mut x = vec![0.0; k];
+        x.fill(0.0);
         let mut feasible = true;
         for (r, &jr) in idx.iter().enumerate() {
             let v = a[r * (m + 1) + m] / a[r * (m + 1) + r];
@@ -227,7 +360,7 @@ fn nnls_small(gg: &[f64], gy: &[f64], k: usize) -> Vec<f64> {
         }
         if obj < best_obj {
             best_obj = obj;
-            best = x;
+            best.copy_from_slice(&x);
         }
     }
     best
@@ -319,6 +452,64 @@ pub fn specular_split_with(t: &BrdfTensor, g: &[f64]) -> SpecularSplit {
     }
 }
 
+/// The specular split of a [`RingTensor`].
+pub struct RingSplit {
+    /// `[h][o][k]` amplitudes (the same along every ring).
+    pub amplitudes: Vec<f64>,
+    /// The residual's ring rows `[h][j][i]`, same scaling as the tensor's (the residual is
+    /// equivariant too).
+    pub residual: Vec<f64>,
+    /// `||specular part|| / ||F||`.
+    pub specular_fraction: f64,
+}
+
+/// [`specular_split_with`] for a [`RingTensor`]: only the first node of every ring is fitted,
+/// against its profiles `g` (`[j][k][i]`, those about node `(j, 0)`'s mirror direction; node
+/// `(j, k)`'s are them turned by `k` columns, and so are its fibre and its fit). Fits run in
+/// parallel, each independently.
+pub fn specular_split_rings(t: &RingTensor, g: &[f64]) -> RingSplit {
+    let (nh, nd, _) = t.dims();
+    let (nt, np) = (t.dirs.n_theta, t.dirs.n_phi);
+    let nk = SPLIT_WIDTHS_DEG.len();
+    assert_eq!(g.len(), nt * nk * nd);
+    let grams: Vec<Vec<f64>> = g
+        .chunks_exact(nk * nd)
+        .map(|p| profile_gram(p, nk))
+        .collect();
+    let mut residual = t.rings.clone();
+    let fits: Vec<Vec<f64>> = residual
+        .par_chunks_mut(nd)
+        .enumerate()
+        .map(|(n, y)| {
+            let j = n % nt;
+            split_fibre(y, &g[j * nk * nd..][..nk * nd], &grams[j], nk)
+        })
+        .collect();
+    let mut amplitudes = Vec::with_capacity(nh * nd * nk);
+    for a in &fits {
+        for _ in 0..np {
+            amplitudes.extend_from_slice(a);
+        }
+    }
+    // every ring row stands for n_phi rows with the same values
+    let total: f64 = t.rings.iter().map(|x| x * x).sum();
+    let spec: f64 = t
+        .rings
+        .iter()
+        .zip(&residual)
+        .map(|(a, b)| (a - b) * (a - b))
+        .sum();
+    RingSplit {
+        amplitudes,
+        residual,
+        specular_fraction: if total > 0.0 {
+            (spec / total).sqrt()
+        } else {
+            0.0
+        },
+    }
+}
+
 /// A Tucker decomposition: orthonormal factors (columns) and the core `[rh][ro][ri]`.
 pub struct Tucker {
     pub u_h: Mat<f64>,
@@ -332,24 +523,7 @@ pub struct Tucker {
     pub sweeps: usize,
 }
 
-/// Leading `r` eigenvectors (sign-fixed) of the Gram matrix of the rows of the mode
-/// unfolding given as a `dim x rest` matrix.
-fn leading_left(unfold: &Mat<f64>, r: usize) -> Result<Mat<f64>, BasisError> {
-    let g = matmul(unfold.as_ref(), unfold.transpose());
-    let (_, v) = sym_eig_desc(g.as_ref())?;
-    let r = r.min(v.ncols());
-    let mut u = Mat::<f64>::zeros(v.nrows(), r);
-    for c in 0..r {
-        let mut col: Vec<f64> = (0..v.nrows()).map(|i| v[(i, c)]).collect();
-        fix_sign(&mut col);
-        for (i, x) in col.into_iter().enumerate() {
-            u[(i, c)] = x;
-        }
-    }
-    Ok(u)
-}
-
-/// Mode unfoldings of a tensor `[a][b][c]` (c fastest).
+/// Mode unfoldings of a (small) tensor `[a][b][c]` (c fastest), as copies.
 fn unfold(x: &[f64], dims: (usize, usize, usize), mode: usize) -> Mat<f64> {
     let (a, b, c) = dims;
     match mode {
@@ -359,7 +533,17 @@ fn unfold(x: &[f64], dims: (usize, usize, usize), mode: usize) -> Mat<f64> {
     }
 }
 
-/// `x ×_mode U^T` for a tensor `[a][b][c]`, returning the new tensor and its dims.
+/// Rows of `x` viewed as `(b c) x a` per block in [`contract`] (mode 0), and columns of it
+/// viewed as `c x (a b)` per block (mode 2): fixed sizes, so the blocks, each computed
+/// sequentially, do not depend on the thread count.
+const CONTRACT_BLOCK: usize = 8192;
+
+/// Sub-blocks of [`contract`]'s mode 0 (its accumulators stay in L1).
+const CONTRACT_SUB: usize = 256;
+
+/// `x ×_mode U^T` for a tensor `[a][b][c]`, returning the new tensor and its dims. The tensor
+/// is read in place (no unfolding is copied); the work is split into fixed blocks computed in
+/// parallel, each sequentially, so the result does not depend on the thread count.
 fn contract(
     x: &[f64],
     dims: (usize, usize, usize),
@@ -370,37 +554,73 @@ fn contract(
     let r = u.ncols();
     match mode {
         0 => {
-            let xm = Mat::from_fn(a, b * c, |i, j| x[i * b * c + j]);
-            let y = matmul_tn(u.as_ref(), xm.as_ref()); // r x (b c)
-            let mut out = vec![0.0; r * b * c];
-            for i in 0..r {
-                for j in 0..b * c {
-                    out[i * b * c + j] = y[(i, j)];
-                }
+            // out[i][j] = sum_h u(h, i) x[h][j], summed over h in order; blocks of j in
+            // parallel (a streaming pass: x is read once)
+            let bc = b * c;
+            let mut out = vec![0.0; r * bc];
+            if bc > 0 && r > 0 {
+                let blocks: Vec<Vec<f64>> = (0..bc.div_ceil(CONTRACT_BLOCK))
+                    .into_par_iter()
+                    .map(|n| {
+                        let j0 = n * CONTRACT_BLOCK;
+                        let len = CONTRACT_BLOCK.min(bc - j0);
+                        // y[i][jj] over sub-blocks small enough to stay in L1 while every
+                        // slab streams through
+                        let mut y = vec![0.0; r * len];
+                        let w: Vec<f64> = (0..a * r).map(|n| u[(n / r, n % r)]).collect();
+                        for s0 in (0..len).step_by(CONTRACT_SUB) {
+                            let sl = CONTRACT_SUB.min(len - s0);
+                            for h in 0..a {
+                                let xs = &x[h * bc + j0 + s0..][..sl];
+                                for i in 0..r {
+                                    let wi = w[h * r + i];
+                                    let yi = &mut y[i * len + s0..][..sl];
+                                    for (v, xv) in yi.iter_mut().zip(xs) {
+                                        *v += wi * xv;
+                                    }
+                                }
+                            }
+                        }
+                        y
+                    })
+                    .collect();
+                out.par_chunks_mut(bc).enumerate().for_each(|(i, o)| {
+                    for (n, y) in blocks.iter().enumerate() {
+                        let len = y.len() / r;
+                        o[n * CONTRACT_BLOCK..][..len].copy_from_slice(&y[i * len..][..len]);
+                    }
+                });
             }
             (out, (r, b, c))
         }
         1 => {
+            // per slab: x[ia] as c x b, column-major; out[ia] as c x r = x[ia] u
             let mut out = vec![0.0; a * r * c];
-            for ia in 0..a {
-                let xm = Mat::from_fn(b, c, |i, j| x[ia * b * c + i * c + j]);
-                let y = matmul_tn(u.as_ref(), xm.as_ref()); // r x c
-                for i in 0..r {
-                    for j in 0..c {
-                        out[ia * r * c + i * c + j] = y[(i, j)];
-                    }
-                }
+            if r * c > 0 && b * c > 0 {
+                out.par_chunks_mut(r * c)
+                    .zip(x.par_chunks(b * c))
+                    .for_each(|(o, s)| {
+                        let om = MatMut::from_column_major_slice_mut(o, c, r);
+                        let sm = MatRef::from_column_major_slice(s, c, b);
+                        matmul_into(om, Accum::Replace, sm, u.as_ref());
+                    });
             }
             (out, (a, r, c))
         }
         _ => {
-            let xm = Mat::from_fn(a * b, c, |i, j| x[i * c + j]);
-            let y = matmul(xm.as_ref(), u.as_ref()); // (a b) x r
-            let mut out = vec![0.0; a * b * r];
-            for i in 0..a * b {
-                for j in 0..r {
-                    out[i * r + j] = y[(i, j)];
-                }
+            // x as c x (a b), column-major; out as r x (a b) = u^T x
+            let ab = a * b;
+            let m = MatRef::from_column_major_slice(x, c, ab);
+            let mut out = vec![0.0; r * ab];
+            if r > 0 {
+                out.par_chunks_mut(r * CONTRACT_BLOCK)
+                    .enumerate()
+                    .for_each(|(n, o)| {
+                        let len = o.len() / r;
+                        let om = MatMut::from_column_major_slice_mut(o, r, len);
+                        let xm = m.subcols(n * CONTRACT_BLOCK, len);
+                        matmul_into(om, Accum::Replace, u.as_ref().transpose(), xm);
+                    });
             }
             (out, (a, b, r))
         }
@@ -412,13 +632,186 @@ pub struct Hosvd {
     pub factors: [Mat<f64>; 3],
 }
 
+/// The Gram matrix of the mode-0 unfolding (`a x a`), read in place.
+fn gram_mode0(x: &[f64], (a, b, c): (usize, usize, usize)) -> Mat<f64> {
+    let m = MatRef::from_column_major_slice(x, b * c, a);
+    matmul_tn(m, m)
+}
+
+/// HOSVD of a tensor `[a][b][c]`: the leading left singular vectors of every mode unfolding,
+/// as eigenvectors of its Gram matrix (`a x a`, `b x b`, `c x c`; the unfoldings are read in
+/// place, never copied). The three modes run in parallel, each sequentially.
 pub fn hosvd(x: &[f64], dims: (usize, usize, usize)) -> Result<Hosvd, BasisError> {
-    let f0 = leading_left(&unfold(x, dims, 0), dims.0)?;
-    let f1 = leading_left(&unfold(x, dims, 1), dims.1)?;
-    let f2 = leading_left(&unfold(x, dims, 2), dims.2)?;
+    let (a, b, c) = dims;
+    let g1 = || {
+        // sum over slabs of x[ia] x[ia]^T, x[ia] as c x b column-major
+        let mut g = Mat::<f64>::zeros(b, b);
+        for s in x.chunks_exact(b * c) {
+            let sm = MatRef::from_column_major_slice(s, c, b);
+            matmul_into(g.as_mut(), Accum::Add, sm.transpose(), sm);
+        }
+        leading_eigvecs(g.as_ref(), b)
+    };
+    let g2 = || {
+        let m = MatRef::from_column_major_slice(x, c, a * b);
+        leading_eigvecs(matmul(m, m.transpose()).as_ref(), c)
+    };
+    let g0 = || leading_eigvecs(gram_mode0(x, dims).as_ref(), a);
+    let (f0, (f1, f2)) = rayon::join(g0, || rayon::join(g1, g2));
     Ok(Hosvd {
-        factors: [f0, f1, f2],
+        factors: [f0?, f1?, f2?],
     })
+}
+
+/// [`hosvd`] of an equivariant tensor over `[param][wo][wi]` on `dirs` given by its ring rows
+/// `rings` (`[h][j][i]`, `nh` slabs; see [`RingTensor`]). `n_phi` times less work than
+/// [`hosvd`] of the expanded tensor, and no copy of it:
+///
+/// - mode 0: `G(h, h') = n_phi sum_j <X(h, (j, 0), .), X(h', (j, 0), .)>`;
+/// - modes 1 and 2: the Gram matrices are block circulant, `G((j, k), (l, m)) = G((j, 0),
+///   (l, m - k))`. Their rows `(j, 0)` are accumulated slab by slab (each slab expanded into
+///   a buffer; slabs in parallel, summed in order), and [`block_circulant_eig`]
+///   diagonalizes them through the Fourier transform over the azimuth. The eigenvalues of
+///   azimuthal frequencies `f` and `n_phi - f` are equal; the pair's vectors are taken as
+///   the cosine and sine parts, the cosine peaking at column 0.
+///
+/// The same factors as [`hosvd`] to rounding, up to the choice of basis within those pairs.
+pub fn hosvd_rings(rings: &[f64], nh: usize, dirs: HemiGrid) -> Result<Hosvd, BasisError> {
+    let (nd, nt, np) = (dirs.len(), dirs.n_theta, dirs.n_phi);
+    assert_eq!(rings.len(), nh * nt * nd);
+    let g0 = || {
+        let r = MatRef::from_column_major_slice(rings, nt * nd, nh);
+        let mut g = matmul_tn(r, r);
+        for v in g.col_iter_mut().flat_map(|c| c.iter_mut()) {
+            *v *= np as f64;
+        }
+        leading_eigvecs(g.as_ref(), nh)
+    };
+    let g12 = || {
+        let rows: Vec<(Mat<f64>, Mat<f64>)> = (0..nh)
+            .into_par_iter()
+            .map_init(
+                || vec![0.0; nd * nd],
+                |buf, h| {
+                    let ring = &rings[h * nt * nd..][..nt * nd];
+                    expand_slab(ring, dirs, buf);
+                    let sm = MatRef::from_column_major_slice(buf, nd, nd); // (i, o) = X(o, i)
+                    let rm = MatRef::from_column_major_slice(ring, nd, nt); // (i, j) = X((j, 0), i)
+                                                                            // rows (j, 0) of X X^T (mode 1) and of X^T X (mode 2)
+                    let r1 = matmul(rm.transpose(), sm);
+                    let sel = Mat::from_fn(nt, nd, |j, o| sm[(j * np, o)]);
+                    let r2 = matmul(sel.as_ref(), sm.transpose());
+                    (r1, r2)
+                },
+            )
+            .collect();
+        let mut rows1 = Mat::<f64>::zeros(nt, nd);
+        let mut rows2 = Mat::<f64>::zeros(nt, nd);
+        for (r1, r2) in &rows {
+            rows1 += r1;
+            rows2 += r2;
+        }
+        rayon::join(
+            || block_circulant_eig(rows1.as_ref(), np).map(|(_, u)| u),
+            || block_circulant_eig(rows2.as_ref(), np).map(|(_, u)| u),
+        )
+    };
+    let (f0, (f1, f2)) = rayon::join(g0, g12);
+    Ok(Hosvd {
+        factors: [f0?, f1?, f2?],
+    })
+}
+
+/// Ring rows per block of [`Operand::mode2`] on ring rows (fixed, so the blocks do not depend
+/// on the thread count).
+const RING_BLOCK: usize = 64;
+
+/// What [`tucker_with`] decomposes: a dense tensor `[a][b][c]`, or an equivariant one over
+/// `[param][wo][wi]` by its ring rows (`[a][j][i]`, see [`RingTensor`]).
+enum Operand<'a> {
+    Dense(Cow<'a, [f64]>, (usize, usize, usize)),
+    Rings(Cow<'a, [f64]>, usize, HemiGrid),
+}
+
+impl Operand<'_> {
+    /// `||X||^2`.
+    fn norm2(&self) -> f64 {
+        match self {
+            Operand::Dense(x, _) => x.iter().map(|v| v * v).sum(),
+            // every ring row stands for n_phi rows with the same values
+            Operand::Rings(r, _, dirs) => dirs.n_phi as f64 * r.iter().map(|v| v * v).sum::<f64>(),
+        }
+    }
+
+    /// `X ×_0 U^T`, equivariant again when `X` is: its ring rows are the contraction of `X`'s.
+    fn mode0(&self, u: &Mat<f64>) -> Operand<'static> {
+        match self {
+            Operand::Dense(x, d) => {
+                let (t, d) = contract(x, *d, 0, u);
+                Operand::Dense(Cow::Owned(t), d)
+            }
+            Operand::Rings(r, a, dirs) => {
+                let (t, _) = contract(r, (*a, dirs.n_theta, dirs.len()), 0, u);
+                Operand::Rings(Cow::Owned(t), u.ncols(), *dirs)
+            }
+        }
+    }
+
+    /// `X ×_1 U^T`, dense. Ring rows: slab by slab (expanded into a buffer; slabs in parallel).
+    fn mode1(&self, u: &Mat<f64>) -> (Vec<f64>, (usize, usize, usize)) {
+        match self {
+            Operand::Dense(x, d) => contract(x, *d, 1, u),
+            Operand::Rings(rings, a, dirs) => {
+                let (nd, nt) = (dirs.len(), dirs.n_theta);
+                let r = u.ncols();
+                let mut out = vec![0.0; a * r * nd];
+                if r * nd > 0 {
+                    out.par_chunks_mut(r * nd).enumerate().for_each_init(
+                        || vec![0.0; nd * nd],
+                        |buf, (h, o)| {
+                            expand_slab(&rings[h * nt * nd..][..nt * nd], *dirs, buf);
+                            let sm = MatRef::from_column_major_slice(buf, nd, nd);
+                            let om = MatMut::from_column_major_slice_mut(o, nd, r);
+                            matmul_into(om, Accum::Replace, sm, u.as_ref());
+                        },
+                    );
+                }
+                (out, (*a, r, nd))
+            }
+        }
+    }
+
+    /// `X ×_2 U^T`, dense. Ring rows: `X((j, k), .) U` is the ring row `(j, 0)` times `U`
+    /// turned by `k` columns, `U_k((j', k'), c) = U((j', k' + k), c)`; all of them at once,
+    /// `[rows (h, j)] x [U_0 .. U_{n_phi - 1}]`, whose result is laid out `[h][(j, k)][c]`.
+    fn mode2(&self, u: &Mat<f64>) -> (Vec<f64>, (usize, usize, usize)) {
+        match self {
+            Operand::Dense(x, d) => contract(x, *d, 2, u),
+            Operand::Rings(rings, a, dirs) => {
+                let (nd, nt, np) = (dirs.len(), dirs.n_theta, dirs.n_phi);
+                let r = u.ncols();
+                let urot = Mat::from_fn(nd, np * r, |i, q| {
+                    let (k, c) = (q / r, q % r);
+                    let (jp, kp) = (i / np, i % np);
+                    u[(jp * np + (kp + k) % np, c)]
+                });
+                let m = MatRef::from_column_major_slice(rings, nd, a * nt);
+                let mut out = vec![0.0; a * nd * r];
+                if r > 0 {
+                    // out as (n_phi r) x (a n_theta), column-major
+                    out.par_chunks_mut(np * r * RING_BLOCK)
+                        .enumerate()
+                        .for_each(|(n, o)| {
+                            let len = o.len() / (np * r);
+                            let om = MatMut::from_column_major_slice_mut(o, np * r, len);
+                            let xm = m.subcols(n * RING_BLOCK, len);
+                            matmul_into(om, Accum::Replace, urot.transpose(), xm);
+                        });
+                }
+                (out, (*a, nd, r))
+            }
+        }
+    }
 }
 
 fn truncate(u: &Mat<f64>, r: usize) -> Mat<f64> {
@@ -436,15 +829,43 @@ pub fn tucker(
     max_sweeps: usize,
     tol: f64,
 ) -> Result<Tucker, BasisError> {
-    let norm2: f64 = x.iter().map(|v| v * v).sum();
+    let x = Operand::Dense(Cow::Borrowed(x), dims);
+    tucker_with(&x, start, ranks, max_sweeps, tol)
+}
+
+/// [`tucker`] of an equivariant tensor given by its ring rows (`[h][j][i]`, `nh` slabs on
+/// `dirs`; see [`RingTensor`]), started from [`hosvd_rings`]. The same sweeps; the products
+/// with the tensor use its ring rows, and no copy of it is made.
+pub fn tucker_rings(
+    rings: &[f64],
+    nh: usize,
+    dirs: HemiGrid,
+    start: &Hosvd,
+    ranks: (usize, usize, usize),
+    max_sweeps: usize,
+    tol: f64,
+) -> Result<Tucker, BasisError> {
+    assert_eq!(rings.len(), nh * dirs.n_theta * dirs.len());
+    let x = Operand::Rings(Cow::Borrowed(rings), nh, dirs);
+    tucker_with(&x, start, ranks, max_sweeps, tol)
+}
+
+fn tucker_with(
+    x: &Operand<'_>,
+    start: &Hosvd,
+    ranks: (usize, usize, usize),
+    max_sweeps: usize,
+    tol: f64,
+) -> Result<Tucker, BasisError> {
+    let norm2 = x.norm2();
     let mut u = [
         truncate(&start.factors[0], ranks.0),
         truncate(&start.factors[1], ranks.1),
         truncate(&start.factors[2], ranks.2),
     ];
-    let err_of = |u: &[Mat<f64>; 3]| -> (Vec<f64>, f64) {
-        let (t, d) = contract(x, dims, 0, &u[0]);
-        let (t, d) = contract(&t, d, 1, &u[1]);
+    // the core and the error, from x already contracted along mode 0
+    let core_of = |t0: &Operand<'_>, u: &[Mat<f64>; 3]| -> (Vec<f64>, f64) {
+        let (t, d) = t0.mode1(&u[1]);
         let (core, _) = contract(&t, d, 2, &u[2]);
         let c2: f64 = core.iter().map(|v| v * v).sum();
         let e = if norm2 > 0.0 {
@@ -454,20 +875,21 @@ pub fn tucker(
         };
         (core, e)
     };
-    let (mut core, mut err) = err_of(&u);
+    let (mut core, mut err) = core_of(&x.mode0(&u[0]), &u);
     let mut sweeps = 0;
     for _ in 0..max_sweeps {
         // mode 0: contract modes 1 and 2
-        let (t, d) = contract(x, dims, 2, &u[2]);
+        let (t, d) = x.mode2(&u[2]);
         let (t, d) = contract(&t, d, 1, &u[1]);
-        u[0] = leading_left(&unfold(&t, d, 0), u[0].ncols())?;
-        let (t, d) = contract(x, dims, 0, &u[0]);
-        let (t2, d2) = contract(&t, d, 2, &u[2]);
-        u[1] = leading_left(&unfold(&t2, d2, 1), u[1].ncols())?;
-        let (t3, d3) = contract(&t, d, 1, &u[1]);
-        u[2] = leading_left(&unfold(&t3, d3, 2), u[2].ncols())?;
+        u[0] = leading_left_vectors(unfold(&t, d, 0).as_ref(), u[0].ncols())?;
+        let t = x.mode0(&u[0]);
+        let (t2, d2) = t.mode2(&u[2]);
+        u[1] = leading_left_vectors(unfold(&t2, d2, 1).as_ref(), u[1].ncols())?;
+        let (t3, d3) = t.mode1(&u[1]);
+        u[2] = leading_left_vectors(unfold(&t3, d3, 2).as_ref(), u[2].ncols())?;
         sweeps += 1;
-        let (c, e) = err_of(&u);
+        // u[0] is the one `t` was contracted with
+        let (c, e) = core_of(&t, &u);
         let improved = err - e;
         core = c;
         let old = err;
@@ -598,5 +1020,120 @@ mod tests {
         let a = nnls_small(&gg, &[-1.0, 1.0], 2);
         assert_eq!(a[0], 0.0);
         assert!((a[1] - 1.0).abs() < 1e-12);
+    }
+
+    /// A small equivariant tensor: ring rows of arbitrary values and their expansion.
+    fn ring_example() -> (Vec<f64>, Vec<f64>, usize, HemiGrid) {
+        let dirs = HemiGrid {
+            n_theta: 4,
+            n_phi: 8,
+        };
+        let nh = 3;
+        let rings: Vec<f64> = (0..nh * dirs.n_theta * dirs.len())
+            .map(|n| ((n * 7919) % 1009) as f64 / 1009.0 - 0.3)
+            .collect();
+        let x = expand_rings(&rings, nh, dirs);
+        (rings, x, nh, dirs)
+    }
+
+    fn close(a: &[f64], b: &[f64], tol: f64) {
+        assert_eq!(a.len(), b.len());
+        let m = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for (x, y) in a.iter().zip(b) {
+            assert!((x - y).abs() <= tol * m, "{x} vs {y}");
+        }
+    }
+
+    /// The products with ring rows are those with the expanded tensor.
+    #[test]
+    fn ring_operands_contract_like_the_expanded_tensor() {
+        let (rings, x, nh, dirs) = ring_example();
+        let nd = dirs.len();
+        let dense = Operand::Dense(Cow::Borrowed(&x), (nh, nd, nd));
+        let ring = Operand::Rings(Cow::Borrowed(&rings), nh, dirs);
+        let n2 = dense.norm2();
+        assert!((ring.norm2() - n2).abs() <= 1e-13 * n2);
+        let u = |n: usize, r: usize| {
+            Mat::from_fn(n, r, |i, c| ((i * 3 + c * 5 + 1) as f64 * 0.37).sin())
+        };
+        // mode 0: the same sums, so the same bits
+        let Operand::Rings(t, a, _) = ring.mode0(&u(nh, 2)) else {
+            panic!("mode 0 of ring rows is ring rows")
+        };
+        assert_eq!(a, 2);
+        let Operand::Dense(td, _) = dense.mode0(&u(nh, 2)) else {
+            panic!()
+        };
+        assert_eq!(expand_rings(&t, 2, dirs), td.to_vec());
+        for mode in [1, 2] {
+            let um = u(nd, 5);
+            let ((a, da), (b, db)) = if mode == 1 {
+                (ring.mode1(&um), dense.mode1(&um))
+            } else {
+                (ring.mode2(&um), dense.mode2(&um))
+            };
+            assert_eq!(da, db);
+            close(&a, &b, 1e-13);
+        }
+    }
+
+    /// `hosvd_rings` gives orthonormal eigenvectors of the expanded tensor's Gram matrices
+    /// (with its eigenvalues), and `tucker_rings` the expanded tensor's decomposition.
+    #[test]
+    fn ring_decomposition_matches_the_expanded_tensor() {
+        let (rings, x, nh, dirs) = ring_example();
+        let nd = dirs.len();
+        let dims = (nh, nd, nd);
+        let h = hosvd_rings(&rings, nh, dirs).unwrap();
+        for mode in 0..3 {
+            let w = unfold(&x, dims, mode);
+            let g = matmul(w.as_ref(), w.transpose());
+            let (vals, _) = super::super::linalg::sym_eig_desc(g.as_ref()).unwrap();
+            let u = &h.factors[mode];
+            assert_eq!(u.ncols(), g.nrows());
+            let gu = matmul(g.as_ref(), u.as_ref());
+            let utu = matmul_tn(u.as_ref(), u.as_ref());
+            for c in 0..u.ncols() {
+                for i in 0..u.nrows() {
+                    let r = gu[(i, c)] - vals[c] * u[(i, c)];
+                    assert!(r.abs() < 1e-10 * vals[0], "mode {mode} col {c}: {r}");
+                    let id = if i == c { 1.0 } else { 0.0 };
+                    assert!((utu[(i, c)] - id).abs() < 1e-12);
+                }
+            }
+        }
+        for ranks in [(2, 5, 5), (3, 8, 4)] {
+            let a = tucker_rings(&rings, nh, dirs, &h, ranks, 8, 1e-10).unwrap();
+            let b = tucker(&x, dims, &h, ranks, 8, 1e-10).unwrap();
+            assert_eq!(a.sweeps, b.sweeps);
+            // (the factors may differ within subspaces of equal singular values, which the
+            // symmetry makes common; the error cannot)
+            assert!((a.rel_error - b.rel_error).abs() < 1e-10, "{ranks:?}");
+        }
+    }
+
+    /// An isotropic lobe sampled by its ring rows is the lobe sampled everywhere.
+    #[test]
+    fn ring_tensor_is_the_lobe_sampled_everywhere() {
+        let dirs = HemiGrid {
+            n_theta: 4,
+            n_phi: 12,
+        };
+        let spec = FamilySpec::default_for(Family::Ggx).unwrap();
+        let params = vec![0.1, 0.4];
+        let dv: Vec<[f64; 3]> = (0..dirs.len()).map(|n| dirs.dir(n)).collect();
+        let r = RingTensor::new(spec, params.clone(), dirs, |p, o, row| {
+            for (v, wi) in row.iter_mut().zip(&dv) {
+                *v = eval_pair(spec, p, dv[o], *wi);
+            }
+        });
+        let t = BrdfTensor::new(spec, params, dirs);
+        close(&r.expand(), &t.data, 1e-10);
+        close(&r.lobe_scale, &t.lobe_scale, 1e-12);
+        let nd = dirs.len();
+        let at: Vec<f64> = (0..t.data.len())
+            .map(|n| r.at(n / (nd * nd), n / nd % nd, n % nd))
+            .collect();
+        close(&at, &t.data, 1e-10);
     }
 }
