@@ -8,7 +8,7 @@
 //! cannot see a lobe narrower than a cell: the sharp lobes would get the wrong energy.
 
 use super::grid::lobe_vectors;
-use super::tucker::SPLIT_WIDTHS_DEG;
+use super::split::SPLIT_WIDTHS_DEG;
 use crate::brdf::Family;
 use prt_formats::basis::HemiGrid;
 use rayon::prelude::*;

@@ -6,8 +6,10 @@
 //! - [`select`]: the reconstruction error of a family's bases per `N_b`, and the smallest
 //!   `N_b` meeting an error target (what the baker's `error_target` uses). The full error
 //!   tables and the report are in the `prt-bench` crate.
-//! - [`tucker`]: the 3-tensor `F(h, wo, wi)` and its Tucker decomposition with the specular
-//!   split.
+//! - [`tensor`]: the family sampled as a 3-tensor `F(h, wo, wi)` (dense, or by the ring rows
+//!   of an isotropic lobe); [`split`]: the specular split of it into Gaussians about the
+//!   mirror direction and a residual; [`tucker`]: the Tucker decomposition (HOSVD, HOOI) and
+//!   the error report with and without the split.
 //! - [`shading`]: the persisted Tucker shading basis of the per-vertex mode
 //!   ([`prt_formats::basis::ShadingBasis`]) built from them.
 
@@ -19,6 +21,8 @@ pub mod pca;
 pub mod pole;
 pub mod select;
 pub mod shading;
+pub mod split;
+pub mod tensor;
 pub mod tucker;
 
 pub use error::BasisError;

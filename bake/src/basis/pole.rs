@@ -14,7 +14,8 @@
 
 use super::cells::{cell_average_row, cell_averages};
 use super::grid::lobe_vectors;
-use super::tucker::{profile_gram, split_fibre, RingSplit, RingTensor, SPLIT_WIDTHS_DEG};
+use super::split::{profile_gram, split_fibre, RingSplit, SPLIT_WIDTHS_DEG};
+use super::tensor::RingTensor;
 use faer::Mat;
 use prt_formats::basis::TuckerRanks;
 use rayon::prelude::*;

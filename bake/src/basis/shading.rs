@@ -34,10 +34,9 @@
 use super::cells::{cell_average_profile, cell_average_row};
 use super::error::BasisError;
 use super::pole::{core_i, core_o, fit_row, PoleParts};
-use super::tucker::{
-    hosvd_rings, ring_offset, specular_split_rings, tucker_rings, RingSplit, RingTensor,
-    SPLIT_WIDTHS_DEG,
-};
+use super::split::{specular_split_rings, RingSplit, SPLIT_WIDTHS_DEG};
+use super::tensor::{ring_offset, RingTensor};
+use super::tucker::{hosvd_rings, tucker_rings};
 use super::FamilySpec;
 use crate::brdf::Family;
 use prt_formats::basis::{

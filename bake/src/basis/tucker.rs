@@ -1,19 +1,20 @@
-//! Tensor basis for shading (thesis 5.2.2, 5.3.1): the family sampled as a 3-tensor
-//! `F(h, wo, wi)` (h = lobe parameter sample, wo/wi = directions on a hemisphere grid),
-//! optionally minus a specular part made of Gaussians about the mirror direction, then a
-//! Tucker decomposition `F ~ D x_h U^h x_o U^o x_i U^i` (HOSVD start, HOOI refinement).
+//! Tucker decomposition of a 3-tensor (thesis 5.2.2, 5.3.1), `X ~ D x_h U^h x_o U^o x_i U^i`:
+//! HOSVD start ([`hosvd`]), HOOI refinement ([`tucker`]), and the error grid of thesis figure
+//! 5-5 with and without the specular split ([`tucker_report`]). The tensors come from
+//! `super::tensor` (sampled and scaled there, so the errors here are in its metric) and the
+//! split's residual from `super::split`.
 //!
-//! Metric: entries are scaled by `sqrt(cos(theta_o) cos(theta_i) dwo dwi)` and every lobe is
-//! normalized to unit norm, so the Frobenius norm is the cosine-weighted L2 norm of
-//! docs/brdf-basis.md and the reported error `||F - F^|| / ||F||` is the RMS of the lobes'
-//! relative errors. The scalings are per mode, so unscaling the factor matrices gives a Tucker
-//! decomposition of the raw BRDF values.
+//! The equivariant tensor of an isotropic lobe is decomposed from its ring rows
+//! ([`hosvd_rings`], [`tucker_rings`]), `n_phi` times fewer than its rows, and is never
+//! expanded whole: that is what makes the shading basis cheap to build (docs/brdf-basis.md,
+//! "Shading basis": 65 MB and under a second, against 1.0 GB and 25 to 30 s dense).
 
 use super::error::BasisError;
-use super::grid::lobe_f64;
 use super::linalg::{
     block_circulant_eig, leading_eigvecs, leading_left_vectors, matmul, matmul_into, matmul_tn,
 };
+use super::split::{specular_split, SPLIT_WIDTHS_DEG};
+use super::tensor::{expand_slab, BrdfTensor};
 use super::FamilySpec;
 use crate::brdf::Family;
 use faer::{Accum, Mat, MatMut, MatRef};
@@ -21,494 +22,9 @@ use rayon::prelude::*;
 use serde::Serialize;
 use std::borrow::Cow;
 
-/// The equal-area hemisphere grid of the tensor's direction modes; it lives in
-/// `prt_formats::basis` because the shading basis persists tables over it.
-pub use prt_formats::basis::HemiGrid;
-
-/// Gaussian widths of the specular split (thesis 5.3.1), degrees; 0 = a mirror spike.
-pub const SPLIT_WIDTHS_DEG: [f64; 4] = [0.0, 7.0, 14.0, 21.0];
-
-/// The sampled, scaled tensor, layout `[h][o][i]` (i fastest).
-pub struct BrdfTensor {
-    pub spec: FamilySpec,
-    pub params: Vec<f64>,
-    pub dirs: HemiGrid,
-    pub data: Vec<f64>,
-    /// Per-direction scale `sqrt(cos(theta) dw)`.
-    pub dir_scale: Vec<f64>,
-    /// Per-lobe normalization applied (1 / cosine-weighted norm).
-    pub lobe_scale: Vec<f64>,
-}
-
-impl BrdfTensor {
-    /// The lobe sampled at the grid's nodes (both directions).
-    pub fn new(spec: FamilySpec, params: Vec<f64>, dirs: HemiGrid) -> BrdfTensor {
-        let dv: Vec<[f64; 3]> = (0..dirs.len()).map(|n| dirs.dir(n)).collect();
-        BrdfTensor::from_rows(spec, params, dirs, |p, o, row| {
-            for (v, wi) in row.iter_mut().zip(&dv) {
-                *v = eval_pair(spec, p, dv[o], *wi);
-            }
-        })
-    }
-
-    /// A tensor whose raw (unscaled) values `F(p, o, .)` over the incident directions are
-    /// written by `row(p, o, out)`; scaled and normalized as [`BrdfTensor::new`]. Slabs are
-    /// computed in parallel, each value independently, so the result does not depend on the
-    /// thread count.
-    pub fn from_rows(
-        spec: FamilySpec,
-        params: Vec<f64>,
-        dirs: HemiGrid,
-        row: impl Fn(f64, usize, &mut [f64]) + Sync,
-    ) -> BrdfTensor {
-        let nd = dirs.len();
-        let dir_scale: Vec<f64> = (0..nd)
-            .map(|n| (dirs.dir(n)[2] * dirs.solid_angle()).sqrt())
-            .collect();
-        let slabs: Vec<(Vec<f64>, f64)> = params
-            .par_iter()
-            .map(|&p| {
-                let mut s = vec![0.0; nd * nd];
-                for (o, r) in s.chunks_exact_mut(nd).enumerate() {
-                    row(p, o, r);
-                    for (v, si) in r.iter_mut().zip(&dir_scale) {
-                        *v *= dir_scale[o] * si;
-                    }
-                }
-                let norm = s.iter().map(|x| x * x).sum::<f64>().sqrt();
-                let sc = if norm > 0.0 { 1.0 / norm } else { 0.0 };
-                for x in s.iter_mut() {
-                    *x *= sc;
-                }
-                (s, sc)
-            })
-            .collect();
-        let mut data = Vec::with_capacity(params.len() * nd * nd);
-        let mut lobe_scale = Vec::new();
-        for (s, sc) in slabs {
-            data.extend_from_slice(&s);
-            lobe_scale.push(sc);
-        }
-        BrdfTensor {
-            spec,
-            params,
-            dirs,
-            data,
-            dir_scale,
-            lobe_scale,
-        }
-    }
-
-    pub fn dims(&self) -> (usize, usize, usize) {
-        (self.params.len(), self.dirs.len(), self.dirs.len())
-    }
-}
-
-/// The sampled, scaled tensor of an **isotropic** lobe, stored by its ring rows.
-///
-/// The grid turns onto itself by one column (`2 pi / n_phi` about the normal), cells onto
-/// cells, and an isotropic lobe turns with `wo`; so the tensor is equivariant,
-/// `F(h, (j, k), (j', k')) = F(h, (j, 0), (j', k' - k mod n_phi))`, and the fibres of the first
-/// node of every ring (`n_phi` times fewer than the tensor's) hold all of it. Everything
-/// built from it (the split, [`hosvd_rings`], [`tucker_rings`]) works on those rows and
-/// expands a slab at a time where it needs one; scaled and normalized as [`BrdfTensor`].
-pub struct RingTensor {
-    pub spec: FamilySpec,
-    pub params: Vec<f64>,
-    pub dirs: HemiGrid,
-    /// `[h][j][i]`: the fibres `F(h, (j, 0), .)` (see [`ring_offset`]).
-    pub rings: Vec<f64>,
-    /// Per-direction scale `sqrt(cos(theta) dw)`.
-    pub dir_scale: Vec<f64>,
-    /// Per-lobe normalization applied (1 / cosine-weighted norm).
-    pub lobe_scale: Vec<f64>,
-}
-
-impl RingTensor {
-    /// The tensor whose raw (unscaled) values `F(p, o, .)` over the incident directions are
-    /// written by `row(p, o, out)`, which must be invariant under the grid's rotations (it is
-    /// called for `o` the first node of every ring only). Rows are computed in parallel, each
-    /// independently, so the result does not depend on the thread count.
-    pub fn new(
-        spec: FamilySpec,
-        params: Vec<f64>,
-        dirs: HemiGrid,
-        row: impl Fn(f64, usize, &mut [f64]) + Sync,
-    ) -> RingTensor {
-        let (nd, nt, np) = (dirs.len(), dirs.n_theta, dirs.n_phi);
-        let nh = params.len();
-        let dir_scale: Vec<f64> = (0..nd)
-            .map(|n| (dirs.dir(n)[2] * dirs.solid_angle()).sqrt())
-            .collect();
-        let mut rings = vec![0.0; nh * nt * nd];
-        rings.par_chunks_mut(nd).enumerate().for_each(|(n, r)| {
-            let (h, j) = (n / nt, n % nt);
-            let o = dirs.index(j, 0);
-            row(params[h], o, r);
-            for (v, si) in r.iter_mut().zip(&dir_scale) {
-                *v *= dir_scale[o] * si;
-            }
-        });
-        // every ring row stands for n_phi rows of the slab with the same values
-        let lobe_scale: Vec<f64> = rings
-            .chunks_exact_mut(nt * nd)
-            .map(|slab| {
-                let norm = (np as f64 * slab.iter().map(|x| x * x).sum::<f64>()).sqrt();
-                let sc = if norm > 0.0 { 1.0 / norm } else { 0.0 };
-                for x in slab.iter_mut() {
-                    *x *= sc;
-                }
-                sc
-            })
-            .collect();
-        RingTensor {
-            spec,
-            params,
-            dirs,
-            rings,
-            dir_scale,
-            lobe_scale,
-        }
-    }
-
-    pub fn dims(&self) -> (usize, usize, usize) {
-        (self.params.len(), self.dirs.len(), self.dirs.len())
-    }
-
-    /// `F(h, o, i)`.
-    pub fn at(&self, h: usize, o: usize, i: usize) -> f64 {
-        let d = &self.dirs;
-        self.rings[h * d.n_theta * d.len() + ring_offset(*d, o, i)]
-    }
-
-    /// The full tensor `[h][o][i]` ([`expand_rings`]).
-    pub fn expand(&self) -> Vec<f64> {
-        expand_rings(&self.rings, self.params.len(), self.dirs)
-    }
-}
-
-/// Where `X(h, o, i)` of an equivariant tensor sits in slab `h` of its ring rows (`[j][i]`):
-/// `X(h, (j, k), (j', k')) = rings(h, j, (j', k' - k mod n_phi))`.
-pub fn ring_offset(dirs: HemiGrid, o: usize, i: usize) -> usize {
-    let np = dirs.n_phi;
-    let (j, k) = (o / np, o % np);
-    let (jp, kp) = (i / np, i % np);
-    j * dirs.len() + jp * np + (kp + np - k) % np
-}
-
-/// One slab `[o][i]` of an equivariant tensor from its ring rows `ring` (`[j][i]`): row
-/// `(j, k)` is row `j` turned by `k` columns. Pure copies, so exact.
-pub fn expand_slab(ring: &[f64], dirs: HemiGrid, out: &mut [f64]) {
-    let (nd, np) = (dirs.len(), dirs.n_phi);
-    for (o, row) in out.chunks_exact_mut(nd).enumerate() {
-        let (j, k) = (o / np, o % np);
-        rotate_row(&ring[j * nd..][..nd], k, np, row);
-    }
-}
-
-/// Expands ring rows `[h][j][i]` (the fibres of the first node of every ring) into the full
-/// tensor `[h][o][i]` by rotation: row `(h, (j, k))` is row `(h, j)` turned by `k` columns,
-/// `out(j', k') = row(j', k' - k mod n_phi)`. Pure copies, so exact.
-pub fn expand_rings(ring: &[f64], nh: usize, dirs: HemiGrid) -> Vec<f64> {
-    let (nd, nt) = (dirs.len(), dirs.n_theta);
-    assert_eq!(ring.len(), nh * nt * nd);
-    let mut data = vec![0.0; nh * nd * nd];
-    if nd > 0 {
-        data.par_chunks_mut(nd * nd)
-            .zip(ring.par_chunks(nt * nd))
-            .for_each(|(slab, rows)| expand_slab(rows, dirs, slab));
-    }
-    data
-}
-
-/// `out(j', k') = row(j', k' - k mod n_phi)` over a grid with `np` columns per ring.
-fn rotate_row(row: &[f64], k: usize, np: usize, out: &mut [f64]) {
-    for (src, dst) in row.chunks_exact(np).zip(out.chunks_exact_mut(np)) {
-        dst[k..].copy_from_slice(&src[..np - k]);
-        dst[..k].copy_from_slice(&src[np - k..]);
-    }
-}
-
-fn eval_pair(spec: FamilySpec, p: f64, wo: [f64; 3], wi: [f64; 3]) -> f64 {
-    let to = wo[2].clamp(-1.0, 1.0).acos();
-    let ti = wi[2].clamp(-1.0, 1.0).acos();
-    let lo = (wo[0] * wo[0] + wo[1] * wo[1]).sqrt();
-    let li = (wi[0] * wi[0] + wi[1] * wi[1]).sqrt();
-    let cp = if lo * li > 1e-300 {
-        ((wo[0] * wi[0] + wo[1] * wi[1]) / (lo * li)).clamp(-1.0, 1.0)
-    } else {
-        1.0
-    };
-    lobe_f64(spec.family, p, ti, to, cp.acos())
-}
-
-/// The specular split: per (h, wo) nonnegative amplitudes of the Gaussians in
-/// [`SPLIT_WIDTHS_DEG`], fitted by nonnegative least squares (in the tensor's metric) to the
-/// wi-fiber, and the residual tensor.
-pub struct SpecularSplit {
-    /// `[h][o][k]` amplitudes.
-    pub amplitudes: Vec<f64>,
-    /// Residual tensor, same layout and scaling as the input.
-    pub residual: Vec<f64>,
-    /// `||specular part|| / ||F||`.
-    pub specular_fraction: f64,
-}
-
-/// Gaussian profiles (scaled like the tensor) about the mirror direction of each `wo`:
-/// `[o][k][i]`. Width 0 is a unit spike at the grid direction nearest to the mirror direction.
-pub fn split_profiles(dirs: &HemiGrid, dir_scale: &[f64]) -> Vec<f64> {
-    let nd = dirs.len();
-    let nk = SPLIT_WIDTHS_DEG.len();
-    let dv: Vec<[f64; 3]> = (0..nd).map(|n| dirs.dir(n)).collect();
-    let mut g = vec![0.0; nd * nk * nd];
-    for o in 0..nd {
-        let w = dv[o];
-        let r = [-w[0], -w[1], w[2]];
-        let mut nearest = 0;
-        let mut best = -2.0;
-        for (i, d) in dv.iter().enumerate() {
-            let c = d[0] * r[0] + d[1] * r[1] + d[2] * r[2];
-            if c > best {
-                best = c;
-                nearest = i;
-            }
-        }
-        for (k, &wd) in SPLIT_WIDTHS_DEG.iter().enumerate() {
-            let base = (o * nk + k) * nd;
-            if wd == 0.0 {
-                g[base + nearest] = dir_scale[nearest] * dir_scale[o];
-                continue;
-            }
-            let sig = wd.to_radians();
-            for (i, d) in dv.iter().enumerate() {
-                let c = (d[0] * r[0] + d[1] * r[1] + d[2] * r[2]).clamp(-1.0, 1.0);
-                let a = c.acos();
-                g[base + i] = (-a * a / (2.0 * sig * sig)).exp() * dir_scale[i] * dir_scale[o];
-            }
-        }
-    }
-    g
-}
-
-/// Nonnegative least squares for a handful of unknowns by enumerating active sets: minimize
-/// `||y - G^T a||` with `a >= 0`, given the Gram matrix `gg = G G^T` and `gy = G y`.
-fn nnls_small(gg: &[f64], gy: &[f64], k: usize) -> Vec<f64> {
-    let mut best = vec![0.0; k];
-    let mut best_obj = 0.0; // objective relative to ||y||^2: -2 a.gy + a.gg.a
-    let mut idx = Vec::with_capacity(k);
-    let mut a = Vec::with_capacity(k * (k + 1));
-    let mut x = vec![0.0; k];
-    for mask in 1u32..(1 << k) {
-        idx.clear();
-        idx.extend((0..k).filter(|&j| mask & (1 << j) != 0));
-        let m = idx.len();
-        // solve the m x m system by Gaussian elimination with partial pivoting
-        a.clear();
-        a.resize(m * (m + 1), 0.0);
-        for (r, &jr) in idx.iter().enumerate() {
-            for (c, &jc) in idx.iter().enumerate() {
-                a[r * (m + 1) + c] = gg[jr * k + jc];
-            }
-            a[r * (m + 1) + m] = gy[jr];
-        }
-        let mut ok = true;
-        for col in 0..m {
-            let piv = (col..m)
-                .max_by(|&x, &y| {
-                    a[x * (m + 1) + col]
-                        .abs()
-                        .total_cmp(&a[y * (m + 1) + col].abs())
-                })
-                .unwrap_or(col);
-            if a[piv * (m + 1) + col].abs() < 1e-300 {
-                ok = false;
-                break;
-            }
-            for c in 0..=m {
-                a.swap(col * (m + 1) + c, piv * (m + 1) + c);
-            }
-            for r in 0..m {
-                if r != col {
-                    let f = a[r * (m + 1) + col] / a[col * (m + 1) + col];
-                    for c in col..=m {
-                        a[r * (m + 1) + c] -= f * a[col * (m + 1) + c];
-                    }
-                }
-            }
-        }
-        if !ok {
-            continue;
-        }
-        x.fill(0.0);
-        let mut feasible = true;
-        for (r, &jr) in idx.iter().enumerate() {
-            let v = a[r * (m + 1) + m] / a[r * (m + 1) + r];
-            if !v.is_finite() || v < 0.0 {
-                feasible = false;
-            }
-            x[jr] = v;
-        }
-        if !feasible {
-            continue;
-        }
-        let mut obj = 0.0;
-        for p in 0..k {
-            obj -= 2.0 * x[p] * gy[p];
-            for q in 0..k {
-                obj += x[p] * gg[p * k + q] * x[q];
-            }
-        }
-        if obj < best_obj {
-            best_obj = obj;
-            best.copy_from_slice(&x);
-        }
-    }
-    best
-}
-
-/// The Gram matrix `G G^T` (`nk x nk`) of `nk` profiles stored one after the other.
-pub fn profile_gram(g: &[f64], nk: usize) -> Vec<f64> {
-    let nd = g.len() / nk.max(1);
-    let mut gg = vec![0.0; nk * nk];
-    for p in 0..nk {
-        for q in 0..nk {
-            let (a, b) = (&g[p * nd..][..nd], &g[q * nd..][..nd]);
-            gg[p * nk + q] = a.iter().zip(b).map(|(x, y)| x * y).sum();
-        }
-    }
-    gg
-}
-
-/// Fits the `nk` profiles `g` (one after the other, Gram matrix `gram`) to the fibre `y` by
-/// nonnegative least squares, subtracts the fit from `y` and returns the amplitudes.
-pub fn split_fibre(y: &mut [f64], g: &[f64], gram: &[f64], nk: usize) -> Vec<f64> {
-    let nd = y.len();
-    let gy: Vec<f64> = (0..nk)
-        .map(|k| {
-            g[k * nd..][..nd]
-                .iter()
-                .zip(y.iter())
-                .map(|(a, b)| a * b)
-                .sum()
-        })
-        .collect();
-    let a = nnls_small(gram, &gy, nk);
-    for k in 0..nk {
-        for (v, p) in y.iter_mut().zip(&g[k * nd..][..nd]) {
-            *v -= a[k] * p;
-        }
-    }
-    a
-}
-
-/// Fits and removes the specular Gaussians from every (h, wo) fiber.
-pub fn specular_split(t: &BrdfTensor) -> SpecularSplit {
-    specular_split_with(t, &split_profiles(&t.dirs, &t.dir_scale))
-}
-
-/// [`specular_split`] with the profiles `g` (`[o][k][i]`, scaled like the tensor, one per
-/// width of [`SPLIT_WIDTHS_DEG`]) given.
-pub fn specular_split_with(t: &BrdfTensor, g: &[f64]) -> SpecularSplit {
-    let (nh, nd, _) = t.dims();
-    let nk = SPLIT_WIDTHS_DEG.len();
-    let grams: Vec<Vec<f64>> = (0..nd)
-        .map(|o| profile_gram(&g[o * nk * nd..(o + 1) * nk * nd], nk))
-        .collect();
-    let results: Vec<(Vec<f64>, Vec<f64>)> = (0..nh)
-        .into_par_iter()
-        .map(|h| {
-            let mut amps = vec![0.0; nd * nk];
-            let mut res = t.data[h * nd * nd..(h + 1) * nd * nd].to_vec();
-            for o in 0..nd {
-                let y = &mut res[o * nd..(o + 1) * nd];
-                let prof = &g[o * nk * nd..(o + 1) * nk * nd];
-                let a = split_fibre(y, prof, &grams[o], nk);
-                amps[o * nk..(o + 1) * nk].copy_from_slice(&a);
-            }
-            (amps, res)
-        })
-        .collect();
-    let mut amplitudes = Vec::with_capacity(nh * nd * nk);
-    let mut residual = Vec::with_capacity(t.data.len());
-    for (a, r) in results {
-        amplitudes.extend_from_slice(&a);
-        residual.extend_from_slice(&r);
-    }
-    let total: f64 = t.data.iter().map(|x| x * x).sum();
-    let spec: f64 = t
-        .data
-        .iter()
-        .zip(&residual)
-        .map(|(a, b)| (a - b) * (a - b))
-        .sum();
-    SpecularSplit {
-        amplitudes,
-        residual,
-        specular_fraction: if total > 0.0 {
-            (spec / total).sqrt()
-        } else {
-            0.0
-        },
-    }
-}
-
-/// The specular split of a [`RingTensor`].
-pub struct RingSplit {
-    /// `[h][o][k]` amplitudes (the same along every ring).
-    pub amplitudes: Vec<f64>,
-    /// The residual's ring rows `[h][j][i]`, same scaling as the tensor's (the residual is
-    /// equivariant too).
-    pub residual: Vec<f64>,
-    /// `||specular part|| / ||F||`.
-    pub specular_fraction: f64,
-}
-
-/// [`specular_split_with`] for a [`RingTensor`]: only the first node of every ring is fitted,
-/// against its profiles `g` (`[j][k][i]`, those about node `(j, 0)`'s mirror direction; node
-/// `(j, k)`'s are them turned by `k` columns, and so are its fibre and its fit). Fits run in
-/// parallel, each independently.
-pub fn specular_split_rings(t: &RingTensor, g: &[f64]) -> RingSplit {
-    let (nh, nd, _) = t.dims();
-    let (nt, np) = (t.dirs.n_theta, t.dirs.n_phi);
-    let nk = SPLIT_WIDTHS_DEG.len();
-    assert_eq!(g.len(), nt * nk * nd);
-    let grams: Vec<Vec<f64>> = g
-        .chunks_exact(nk * nd)
-        .map(|p| profile_gram(p, nk))
-        .collect();
-    let mut residual = t.rings.clone();
-    let fits: Vec<Vec<f64>> = residual
-        .par_chunks_mut(nd)
-        .enumerate()
-        .map(|(n, y)| {
-            let j = n % nt;
-            split_fibre(y, &g[j * nk * nd..][..nk * nd], &grams[j], nk)
-        })
-        .collect();
-    let mut amplitudes = Vec::with_capacity(nh * nd * nk);
-    for a in &fits {
-        for _ in 0..np {
-            amplitudes.extend_from_slice(a);
-        }
-    }
-    // every ring row stands for n_phi rows with the same values
-    let total: f64 = t.rings.iter().map(|x| x * x).sum();
-    let spec: f64 = t
-        .rings
-        .iter()
-        .zip(&residual)
-        .map(|(a, b)| (a - b) * (a - b))
-        .sum();
-    RingSplit {
-        amplitudes,
-        residual,
-        specular_fraction: if total > 0.0 {
-            (spec / total).sqrt()
-        } else {
-            0.0
-        },
-    }
-}
+/// The grid [`hosvd_rings`], [`tucker_rings`] and [`tucker_report`] take, re-exported so that
+/// their callers name it from here.
+pub use super::tensor::HemiGrid;
 
 /// A Tucker decomposition: orthonormal factors (columns) and the core `[rh][ro][ri]`.
 pub struct Tucker {
@@ -676,6 +192,8 @@ pub fn hosvd(x: &[f64], dims: (usize, usize, usize)) -> Result<Hosvd, BasisError
 ///   the cosine and sine parts, the cosine peaking at column 0.
 ///
 /// The same factors as [`hosvd`] to rounding, up to the choice of basis within those pairs.
+///
+/// [`RingTensor`]: super::tensor::RingTensor
 pub fn hosvd_rings(rings: &[f64], nh: usize, dirs: HemiGrid) -> Result<Hosvd, BasisError> {
     let (nd, nt, np) = (dirs.len(), dirs.n_theta, dirs.n_phi);
     assert_eq!(rings.len(), nh * nt * nd);
@@ -728,6 +246,8 @@ const RING_BLOCK: usize = 64;
 
 /// What [`tucker_with`] decomposes: a dense tensor `[a][b][c]`, or an equivariant one over
 /// `[param][wo][wi]` by its ring rows (`[a][j][i]`, see [`RingTensor`]).
+///
+/// [`RingTensor`]: super::tensor::RingTensor
 enum Operand<'a> {
     Dense(Cow<'a, [f64]>, (usize, usize, usize)),
     Rings(Cow<'a, [f64]>, usize, HemiGrid),
@@ -836,6 +356,8 @@ pub fn tucker(
 /// [`tucker`] of an equivariant tensor given by its ring rows (`[h][j][i]`, `nh` slabs on
 /// `dirs`; see [`RingTensor`]), started from [`hosvd_rings`]. The same sweeps; the products
 /// with the tensor use its ring rows, and no copy of it is made.
+///
+/// [`RingTensor`]: super::tensor::RingTensor
 pub fn tucker_rings(
     rings: &[f64],
     nh: usize,
@@ -987,6 +509,7 @@ pub fn tucker_report(
 
 #[cfg(test)]
 mod tests {
+    use super::super::tensor::expand_rings;
     use super::*;
 
     #[test]
@@ -1008,18 +531,6 @@ mod tests {
         assert!(t.rel_error < 1e-6, "{}", t.rel_error);
         let t1 = tucker(&x, dims, &s, (1, 1, 1), 5, 1e-12).unwrap();
         assert!(t1.rel_error > 1e-3);
-    }
-
-    #[test]
-    fn nnls_matches_unconstrained_when_feasible() {
-        let gg = [2.0, 0.5, 0.5, 1.0];
-        let gy = [1.0, 1.0];
-        let a = nnls_small(&gg, &gy, 2);
-        // unconstrained solution: [2 .5; .5 1]^-1 [1 1] = [0.2857, 0.8571]
-        assert!((a[0] - 2.0 / 7.0).abs() < 1e-12 && (a[1] - 6.0 / 7.0).abs() < 1e-12);
-        let a = nnls_small(&gg, &[-1.0, 1.0], 2);
-        assert_eq!(a[0], 0.0);
-        assert!((a[1] - 1.0).abs() < 1e-12);
     }
 
     /// A small equivariant tensor: ring rows of arbitrary values and their expansion.
@@ -1110,30 +621,5 @@ mod tests {
             // symmetry makes common; the error cannot)
             assert!((a.rel_error - b.rel_error).abs() < 1e-10, "{ranks:?}");
         }
-    }
-
-    /// An isotropic lobe sampled by its ring rows is the lobe sampled everywhere.
-    #[test]
-    fn ring_tensor_is_the_lobe_sampled_everywhere() {
-        let dirs = HemiGrid {
-            n_theta: 4,
-            n_phi: 12,
-        };
-        let spec = FamilySpec::default_for(Family::Ggx).unwrap();
-        let params = vec![0.1, 0.4];
-        let dv: Vec<[f64; 3]> = (0..dirs.len()).map(|n| dirs.dir(n)).collect();
-        let r = RingTensor::new(spec, params.clone(), dirs, |p, o, row| {
-            for (v, wi) in row.iter_mut().zip(&dv) {
-                *v = eval_pair(spec, p, dv[o], *wi);
-            }
-        });
-        let t = BrdfTensor::new(spec, params, dirs);
-        close(&r.expand(), &t.data, 1e-10);
-        close(&r.lobe_scale, &t.lobe_scale, 1e-12);
-        let nd = dirs.len();
-        let at: Vec<f64> = (0..t.data.len())
-            .map(|n| r.at(n / (nd * nd), n / nd % nd, n % nd))
-            .collect();
-        close(&at, &t.data, 1e-10);
     }
 }
