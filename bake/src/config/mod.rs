@@ -7,7 +7,8 @@
 //! must supply) happen later, in [`crate::scene::load`].
 //!
 //! [`input`] turns what a user names on the command line (a config, a scene folder, or a bare
-//! glTF) into a config; [`BakeConfig::to_toml`] writes a config back as TOML.
+//! glTF) into a config; [`BakeConfig::to_toml`] writes a config back as TOML. The `[vertex]`
+//! table ([`VertexConfig`]) has its keys, defaults and checks in `vertex.rs`.
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -19,6 +20,7 @@ use serde::Deserialize;
 use crate::brdf::{Family, ALPHA_RANGE, SHININESS_RANGE};
 
 pub mod input;
+mod vertex;
 mod write;
 
 /// Largest accepted image side in pixels; anything larger is almost certainly a typo.
@@ -77,37 +79,7 @@ pub struct BasisConfig {
     pub error_target: Option<f32>,
 }
 
-/// The `[vertex]` table: settings of the per-vertex bake (`mode = "vertex"`; docs/vertex.md).
-/// Every key is optional. `spp` is N1 in vertex mode: the directions traced from each vertex
-/// for T1 and T2.
-#[derive(Clone, Debug, PartialEq, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct VertexConfig {
-    /// N2: directions sampled at each first hit, 1 ..= [`MAX_SECONDARY`] (default
-    /// [`DEFAULT_SECONDARY`]).
-    pub secondary: Option<u32>,
-    /// Haar terms kept per T0 row, 1 ..= 6 x 64 x 64 (default
-    /// [`prt_formats::vertex::DEFAULT_T0_TERMS`]).
-    pub t0_terms: Option<u32>,
-}
-
-/// `[vertex] secondary`'s default (N2).
-pub const DEFAULT_SECONDARY: u32 = 4;
-/// Largest accepted `[vertex] secondary`.
-pub const MAX_SECONDARY: u32 = 64;
-
-impl VertexConfig {
-    /// N2, the default filled in.
-    pub fn secondary(&self) -> u32 {
-        self.secondary.unwrap_or(DEFAULT_SECONDARY)
-    }
-
-    /// Haar terms per T0 row, the default filled in.
-    pub fn t0_terms(&self) -> u32 {
-        self.t0_terms
-            .unwrap_or(prt_formats::vertex::DEFAULT_T0_TERMS as u32)
-    }
-}
+pub use vertex::{VertexConfig, DEFAULT_SECONDARY, MAX_SECONDARY};
 
 /// The `[camera]` table: a pinhole camera replacing the glTF's (docs/config.md).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -556,19 +528,7 @@ impl RawConfig {
 
         let mode = self.mode.unwrap_or(Mode::Pixel);
         if let Some(v) = &self.vertex {
-            if mode != Mode::Vertex {
-                return Err(c.err(
-                    "vertex",
-                    "the [vertex] table sets up a per-vertex bake; it needs `mode = \"vertex\"`",
-                ));
-            }
-            if let Some(n) = v.secondary {
-                c.range_u32("vertex.secondary", n, 1, MAX_SECONDARY)?;
-            }
-            if let Some(k) = v.t0_terms {
-                let max = prt_formats::vertex::cube_len(prt_formats::vertex::DIRECT_CUBE) as u32;
-                c.range_u32("vertex.t0_terms", k, 1, max)?;
-            }
+            v.validate(&c, mode)?;
         }
 
         Ok(BakeConfig {
@@ -736,43 +696,6 @@ mod tests {
         assert_eq!(m.family, Some(Family::BlinnPhong));
         assert_eq!(m.ks, Some(Vec3::new(0.1, 0.2, 0.3)));
         assert_eq!(m.shininess, Some(40.0));
-    }
-
-    #[test]
-    fn vertex_table_needs_vertex_mode_and_checks_its_keys() {
-        let c = parse(
-            "scene = \"x.gltf\"\nmode = \"vertex\"\n[vertex]\nsecondary = 8\nt0_terms = 24576",
-        )
-        .unwrap();
-        let v = c.vertex.as_ref().unwrap();
-        assert_eq!((v.secondary(), v.t0_terms()), (8, 24576));
-        let d = VertexConfig::default();
-        assert_eq!((d.secondary(), d.t0_terms()), (4, 96));
-        for (body, key) in [
-            (
-                "mode = \"vertex\"\n[vertex]\nsecondary = 0",
-                "vertex.secondary",
-            ),
-            (
-                "mode = \"vertex\"\n[vertex]\nsecondary = 65",
-                "vertex.secondary",
-            ),
-            (
-                "mode = \"vertex\"\n[vertex]\nt0_terms = 24577",
-                "vertex.t0_terms",
-            ),
-            (
-                "mode = \"vertex\"\n[vertex]\nt0_terms = 0",
-                "vertex.t0_terms",
-            ),
-            ("mode = \"vertex\"\n[vertex]\nsecundary = 3", "secundary"),
-            ("[vertex]\nsecondary = 3", "mode = \"vertex\""),
-        ] {
-            let e = parse(&format!("scene = \"x.gltf\"\n{body}"))
-                .unwrap_err()
-                .to_string();
-            assert!(e.contains(key), "{body:?}: expected {key:?} in: {e}");
-        }
     }
 
     #[test]
