@@ -7,7 +7,11 @@
 //! bench basis --family blinn-phong --count 6   the error table of one family
 //! bench rays                                   ray throughput on a ~100K-triangle scene
 //! bench container                              bake file write/open/verify throughput
+//! bench compare-rays dump                      rays and triangles for the Embree comparison
+//! bench compare-rays time --scene 100k         our ray core on those rays (docs/compare.md)
 //! ```
+
+mod compare_rays;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -81,6 +85,10 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// The ray side of the comparison with Embree and Mitsuba 3 (bench/compare/compare.py,
+    /// docs/compare.md): dump a scene's triangles and incoherent bounce rays as raw arrays,
+    /// or time our ray core on exactly those rays.
+    CompareRays(compare_rays::CompareRaysArgs),
 }
 
 fn main() -> ExitCode {
@@ -104,6 +112,7 @@ fn run(cli: Cli) -> Result<()> {
             quiet,
         } => pixel(configs, out, img_dir, work_dir, quick, quiet),
         Command::Basis(args) => prt_bench::basis::run(&args),
+        Command::CompareRays(args) => compare_rays::run(&args),
         Command::Rays { rays, config, json } => {
             let scene = match config {
                 Some(c) => prt_bake::run::load(&c, &prt_bake::progress::Silent)?.1,
