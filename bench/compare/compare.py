@@ -16,7 +16,7 @@ not assert. Run it through bench/compare/run.sh, which provides the pinned packa
     both are timed on closest-hit and occlusion queries, one thread and all threads.
 
 Rounds alternate between the tools (ours, theirs, then theirs, ours, ...) so that other load on
-the machine falls on both; the figures are medians over the rounds. Usage:
+the machine falls on both; times are medians over the rounds. Usage:
 
     bench/compare/run.sh                 # the full comparison (256x256, 256 spp; minutes)
     bench/compare/run.sh --quick         # smoke run of every step, under a minute
@@ -220,22 +220,22 @@ def render_comparison(args, report):
     print("    ground truth: Mitsuba %s, %d spp (%s%s)" % (
         VARIANT, a.gt_spp, os.path.relpath(gt_path, ROOT),
         "" if gt_seconds is None else ", %.0f s" % gt_seconds))
-    print("    %d interleaved rounds, medians; Mitsuba %s, drjit %s, %d threads; ours %s; "
-          "Mitsuba scene load %.2f s (not timed)" % (a.rounds, mi.__version__, dr.__version__,
-                                                     dr.thread_count(), a.bin, r.load_s))
+    print("    %d interleaved rounds (time: median, error: RMS); Mitsuba %s, drjit %s, %d "
+          "threads; ours %s; Mitsuba scene load %.2f s (not timed)" % (
+              a.rounds, mi.__version__, dr.__version__, dr.thread_count(), a.bin, r.load_s))
     names = {"mitsuba": "Mitsuba 3 path", "reference": "ours: reference",
              "bake": "ours: bake + relight"}
-    print("  %-22s %9s %9s %10s %12s %11s" % ("renderer", "time s", "wall s", "rel. L2 %",
-                                             "efficiency", "vs Mitsuba"))
-    eff = {}
+    print("  %-22s %9s %9s %10s %15s %12s %11s" % ("renderer", "time s", "wall s", "rel. L2 %",
+                                                   "(min-max) %", "efficiency", "vs Mitsuba"))
+    # Time: the median over rounds (robust to other load on the machine). Error: the root mean
+    # square over rounds (seeds), since efficiency needs the expected squared error.
+    rms = {t: float(np.sqrt(np.mean(np.square(rows[t]["err"])))) for t in tools}
+    eff = {t: 1.0 / (rms[t] ** 2 * median(rows[t]["seconds"])) for t in tools}
     for tool in tools:
-        t, e = median(rows[tool]["seconds"]), median(rows[tool]["err"])
-        eff[tool] = 1.0 / (e * e * t)
-    for tool in tools:
-        t, e = median(rows[tool]["seconds"]), median(rows[tool]["err"])
-        print("  %-22s %9.2f %9.2f %10.3f %12.4g %10.3fx" % (
-            names[tool], t, median(rows[tool]["wall"]), 100 * e, eff[tool],
-            eff[tool] / eff["mitsuba"]))
+        print("  %-22s %9.2f %9.2f %10.3f %7.3f-%-7.3f %12.4g %10.3fx" % (
+            names[tool], median(rows[tool]["seconds"]), median(rows[tool]["wall"]),
+            100 * rms[tool], 100 * min(rows[tool]["err"]), 100 * max(rows[tool]["err"]),
+            eff[tool], eff[tool] / eff["mitsuba"]))
     if bake_parts:
         print("    bake time = bake's own `seconds` (basis %.2f s + trace %.2f s + rest) + "
               "relight frame; time ratio bake / Mitsuba %.2f, reference / Mitsuba %.2f" % (
@@ -243,13 +243,14 @@ def render_comparison(args, report):
                   median([p["trace_s"] for p in bake_parts]),
                   median(rows["bake"]["seconds"]) / median(rows["mitsuba"]["seconds"]),
                   median(rows["reference"]["seconds"]) / median(rows["mitsuba"]["seconds"])))
-    print("    (time: the tool's own figure, scene loading and BVH build excluded on both "
-          "sides; wall: our process, or Mitsuba's render call; efficiency = 1 / (rel. L2^2 x "
-          "time) in 1/s)")
+    print("    (time: the tool's own figure, median over rounds, scene loading and BVH build "
+          "excluded on both sides; wall: our process, or Mitsuba's render call; rel. L2: root "
+          "mean square over the rounds' seeds; efficiency = 1 / (rel. L2^2 x time) in 1/s)")
     report["render"] = dict(width=a.width, height=a.height, spp=a.spp,
                             reflections=a.reflections, gt_spp=a.gt_spp, rounds=a.rounds,
                             case=CASE, rounds_raw=rows, bake_parts=bake_parts,
-                            efficiency=eff, ratio={t: eff[t] / eff["mitsuba"] for t in tools})
+                            rel_l2_rms=rms, efficiency=eff,
+                            ratio={t: eff[t] / eff["mitsuba"] for t in tools})
 
 
 # ------------------------------------------------------------------------------------------
@@ -430,7 +431,7 @@ def main():
     ap.add_argument("--spp", type=int)
     ap.add_argument("--reflections", type=int, default=2)
     ap.add_argument("--gt-spp", type=int, help="ground truth samples per pixel (default 8192)")
-    ap.add_argument("--rounds", type=int, help="interleaved rounds (default 3)")
+    ap.add_argument("--rounds", type=int, help="interleaved rounds (default 5)")
     ap.add_argument("--rays", type=int, help="rays per scene (default 2000000)")
     ap.add_argument("--ray-scenes", help="comma-separated: cornell, 100k, 1m, or bake configs "
                     "(default cornell,100k,1m)")
@@ -444,7 +445,7 @@ def main():
     args = ap.parse_args()
     quick = dict(size=64, spp=16, gt_spp=1024, rounds=2, rays=200_000,
                  ray_scenes="cornell,100k")
-    full = dict(size=256, spp=256, gt_spp=8192, rounds=3, rays=2_000_000,
+    full = dict(size=256, spp=256, gt_spp=8192, rounds=5, rays=2_000_000,
                 ray_scenes="cornell,100k,1m")
     for key, value in (quick if args.quick else full).items():
         if getattr(args, key) is None:

@@ -26,7 +26,8 @@ fi
 
 find_llvm() {
     local f
-    for f in /usr/lib/*/libLLVM-19.so /usr/lib/*/libLLVM.so.19* /usr/lib/llvm-19/lib/libLLVM*.so*; do
+    for f in /usr/lib/*/libLLVM-19.so /usr/lib/*/libLLVM.so.19* \
+        /usr/lib/llvm-19/lib/libLLVM*.so*; do
         [[ -e $f ]] && { echo "$f"; return 0; }
     done
     return 1
@@ -38,7 +39,10 @@ if [[ -z "${DRJIT_LIBLLVM_PATH:-}" ]]; then
         [[ $(id -u) -ne 0 ]] && SUDO=(sudo)
         "${SUDO[@]}" apt-get update -qq
         "${SUDO[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libllvm19 >&2
-        LLVM="$(find_llvm)" || { echo "bench/compare: libllvm19 installed but libLLVM-19.so not found" >&2; exit 1; }
+        if ! LLVM="$(find_llvm)"; then
+            echo "bench/compare: libllvm19 installed, but no libLLVM-19.so found" >&2
+            exit 1
+        fi
     fi
     export DRJIT_LIBLLVM_PATH="$LLVM"
 fi
