@@ -11,3 +11,4 @@ mod runtime_compressed;
 mod runtime_kernels;
 mod runtime_threads;
 mod vertex_convergence;
+mod vertex_exactness;
