@@ -217,6 +217,11 @@ pub struct VertexBakeMeta {
     pub samples: u32,
     /// Directions sampled at each first hit (N2).
     pub secondary: u32,
+    /// T1 also drew one direction in every light bin per first hit, combined with the N2
+    /// BRDF directions by multiple importance sampling (false in files written before the
+    /// option existed).
+    #[serde(default)]
+    pub light_bins: bool,
     /// Reflections modelled: 2 stores T0 and T1 (one reflection before the last), 3 adds T2.
     pub reflections: u32,
     /// The seed of the random streams.

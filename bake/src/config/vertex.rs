@@ -1,5 +1,5 @@
 //! The `[vertex]` table of the bake config (docs/config.md): the per-vertex bake's own
-//! settings (`secondary`, `t0_terms`), their defaults and their checks. Only the per-vertex
+//! settings (`secondary`, `t0_terms`, `light_bins`), their defaults and their checks. Only the per-vertex
 //! mode reads them, and they change with it; the rest of the config only holds the table, so
 //! the table's keys and rules live here, beside one another.
 
@@ -19,6 +19,10 @@ pub struct VertexConfig {
     /// Haar terms kept per T0 row, 1 ..= 6 x 64 x 64 (default
     /// [`prt_formats::vertex::DEFAULT_T0_TERMS`]).
     pub t0_terms: Option<u32>,
+    /// T1 draws one direction in every light bin per first hit as well as the N2 BRDF
+    /// directions, combined by multiple importance sampling (default true): far less
+    /// speckle under small bright lights, for one shadow ray per bin above the horizon.
+    pub light_bins: Option<bool>,
 }
 
 /// `[vertex] secondary`'s default (N2).
@@ -36,6 +40,11 @@ impl VertexConfig {
     pub fn t0_terms(&self) -> u32 {
         self.t0_terms
             .unwrap_or(prt_formats::vertex::DEFAULT_T0_TERMS as u32)
+    }
+
+    /// Whether T1 samples every light bin, the default filled in.
+    pub fn light_bins(&self) -> bool {
+        self.light_bins.unwrap_or(true)
     }
 
     /// Checks the table's values; `mode` is the config's, which must be `vertex` for the table

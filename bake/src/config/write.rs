@@ -98,6 +98,9 @@ impl BakeConfig {
             if let Some(k) = v.t0_terms {
                 let _ = writeln!(w, "t0_terms = {k}");
             }
+            if let Some(b) = v.light_bins {
+                let _ = writeln!(w, "light_bins = {b}");
+            }
         }
         t
     }
@@ -178,13 +181,13 @@ mod tests {
     #[test]
     fn vertex_table_round_trips() {
         let text =
-            "scene = \"x.gltf\"\nmode = \"vertex\"\n[vertex]\nsecondary = 7\nt0_terms = 200\n";
+            "scene = \"x.gltf\"\nmode = \"vertex\"\n[vertex]\nsecondary = 7\nt0_terms = 200\nlight_bins = false\n";
         let c = BakeConfig::parse(text, "/s/bake.toml").unwrap();
         let back = BakeConfig::parse(&c.to_toml(), "/s/bake.toml").unwrap();
         assert_eq!(back, c);
         assert!(c
             .to_toml()
-            .contains("[vertex]\nsecondary = 7\nt0_terms = 200"));
+            .contains("[vertex]\nsecondary = 7\nt0_terms = 200\nlight_bins = false"));
     }
 
     #[test]

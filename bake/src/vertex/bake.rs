@@ -187,6 +187,7 @@ pub fn bake_vertex_with(
         triangles: scene.triangles.len() as u32,
         samples: opts.samples,
         secondary: opts.secondary,
+        light_bins: opts.light_bins,
         reflections: opts.reflections,
         seed: opts.seed,
         channels: plan.slots.channels as u32,

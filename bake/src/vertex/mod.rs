@@ -23,6 +23,7 @@
 //! vertex index, and group-wide figures are reduced in vertex order.
 
 mod bake;
+mod bins;
 mod direct;
 mod error;
 mod frame;
@@ -73,10 +74,13 @@ pub struct VertexBakeOptions {
     pub t0_terms: usize,
     /// Storage of T0 values, T1 and T2.
     pub precision: Precision,
+    /// T1 also draws one direction in every light bin per first hit, combined with the BRDF
+    /// draws by multiple importance sampling (`[vertex] light_bins`, default true).
+    pub light_bins: bool,
 }
 
 impl Default for VertexBakeOptions {
-    /// 64 samples, 4 secondary directions, 2 reflections, seed 0, 96 terms, f16.
+    /// 64 samples, 4 secondary directions, 2 reflections, seed 0, 96 terms, f16, light bins.
     fn default() -> Self {
         VertexBakeOptions {
             samples: crate::config::DEFAULT_SPP,
@@ -85,6 +89,7 @@ impl Default for VertexBakeOptions {
             seed: 0,
             t0_terms: DEFAULT_T0_TERMS,
             precision: Precision::F16,
+            light_bins: true,
         }
     }
 }

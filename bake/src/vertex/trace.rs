@@ -12,6 +12,13 @@
 //! `Rng::for_sample(seed, v, W3_STREAM + i)`, 3 numbers per w2 whether or not a w3 is
 //! needed: T1 is then the same, bit for bit, whether T2 is baked or not.
 //!
+//! With `light_bins` (the default), each first hit y also draws one direction in every T1
+//! light bin above its horizon (`bins.rs`; 2 numbers per bin from a third stream,
+//! `Rng::for_sample(seed, v, 2^41 + i)`), traces a shadow ray, and T1 combines these draws
+//! with the escaping w2 by the balance heuristic: every bin is visited at every first hit, so
+//! a bright, small part of a later environment (a lamp, the sun) no longer depends on a few
+//! lucky w2. T2 keeps the BRDF draws alone (its integrand over w2 is not binned).
+//!
 //! The tensors are per unit radiance: the light is the runtime's input, so unlike the
 //! per-pixel mode there is no light colour (`SlotLayout::tint`) in them.
 
@@ -19,7 +26,6 @@ use std::f64::consts::{PI, TAU};
 
 use glam::Vec3;
 use prt_formats::basis::ShadingBasis;
-use prt_formats::lighting::cubemap::{direction_to_texel, texel_index};
 use prt_formats::lighting::sh::sh_eval;
 use prt_formats::vertex::{cube_len, SH_TERMS, T1_LIGHT_CUBE, T2_LIGHT_CUBE};
 
@@ -27,6 +33,7 @@ use crate::integrator::{Integrator, MaterialModel, Slots};
 use crate::pixel::{BakeModel, SlotLayout};
 use crate::sampling::Rng;
 
+use super::bins::{bin_density, light_bin, sample_bin};
 use super::direct::DirectCube;
 use super::error::VertexError;
 use super::frame::{first_direction, VertexFrame};
@@ -36,12 +43,8 @@ use super::VertexBakeOptions;
 /// Offset of the sample index that keys the w3 stream (above any N1).
 const W3_STREAM: u64 = 1 << 40;
 
-/// The light bin (texel of a cube of side `size`) holding world direction `d`.
-#[inline]
-fn light_bin(size: usize, d: Vec3) -> usize {
-    let (face, i, j) = direction_to_texel(size, d.as_dvec3().to_array());
-    texel_index(size, face, i, j)
-}
+/// Offset of the sample index that keys the light-bin stream (above the w3 stream).
+const BIN_STREAM: u64 = 2 << 40;
 
 /// One vertex's transfer, dense and in f32 (what [`VertexTracer::trace`] returns).
 #[derive(Clone, Debug)]
@@ -93,7 +96,9 @@ pub struct EscapingPath {
     pub y_slots: Vec<Vec3>,
     /// w2, world space.
     pub w2_world: Vec3,
-    /// `(w2 . n_y) / pdf(w2)`.
+    /// The path adds `rho(y) * w2_weight / N2` (times w1's SH weight) to its light bin:
+    /// `(w2 . n_y) / pdf(w2)` for a BRDF draw without bin sampling; with it (and for the bin
+    /// draws), `N2 (w2 . n_y) / (p_bin(w2) + N2 pdf(w2))`, the balance heuristic.
     pub w2_weight: f32,
     /// For a T2 path: the reflection at z.
     pub second: Option<SecondBounce>,
@@ -120,6 +125,7 @@ struct Bounce<'s> {
     w1_world: Vec3,
     y: &'s Slots,
     w2: Vec3,
+    /// The weight `EscapingPath::w2_weight` documents.
     f2: f32,
     second: Option<(&'s Slots, Vec3, f32)>,
 }
@@ -352,6 +358,8 @@ impl<'a> VertexTracer<'a> {
         let accel = integ.accel;
         let eps = integ.eps();
         let three = self.opts.reflections >= 3;
+        let bins = self.opts.light_bins;
+        let n2 = self.opts.secondary as f32;
         let usable = |pdf: f32, f: f32| pdf > 0.0 && pdf.is_finite() && f.is_finite();
         let mut ys = Slots::EMPTY;
         let mut zs = Slots::EMPTY;
@@ -391,13 +399,20 @@ impl<'a> VertexTracer<'a> {
                 self.model.eval(&y, 1, wo_y, bs.wi, &mut ys);
                 rays += 1;
                 let Some(hit2) = accel.intersect(y_origin, w2, 0.0, f32::INFINITY) else {
+                    // T1 combines this sample with the bin draws (balance heuristic); T2's
+                    // integrand is not binned by w2, so a w2 that hits z keeps `f2`.
+                    let weight = if bins {
+                        n2 * bs.wi.z / (bin_density(w2) + n2 * bs.pdf)
+                    } else {
+                        f2
+                    };
                     visit(&Bounce {
                         sample: i,
                         w1_local,
                         w1_world: w1,
                         y: &ys,
                         w2,
-                        f2,
+                        f2: weight,
                         second: None,
                     });
                     continue;
@@ -431,6 +446,40 @@ impl<'a> VertexTracer<'a> {
                     w2,
                     f2,
                     second: Some((&zs, w3, f3)),
+                });
+            }
+            if !bins {
+                continue;
+            }
+            // One draw in every light bin above y's horizon, 2 numbers per bin whether or not
+            // it is traced, from the sample's own bin stream.
+            let mut rng_bins = Rng::for_sample(self.opts.seed, v as u64, BIN_STREAM + i as u64);
+            for bin in 0..cube_len(T1_LIGHT_CUBE) {
+                let u = rng_bins.next_vec2();
+                let Some((w2, p_bin)) = sample_bin(bin, u) else {
+                    break;
+                };
+                let wi = y.to_local(w2);
+                if wi.z <= 0.0 || w2.dot(y.ng) <= 0.0 {
+                    continue;
+                }
+                let weight = n2 * wi.z / (p_bin + n2 * self.model.pdf(&y, wo_y, wi));
+                if !weight.is_finite() {
+                    continue;
+                }
+                rays += 1;
+                if accel.occluded(y_origin, w2, 0.0, f32::INFINITY) {
+                    continue;
+                }
+                self.model.eval(&y, 1, wo_y, wi, &mut ys);
+                visit(&Bounce {
+                    sample: i,
+                    w1_local,
+                    w1_world: w1,
+                    y: &ys,
+                    w2,
+                    f2: weight,
+                    second: None,
                 });
             }
         }

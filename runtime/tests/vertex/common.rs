@@ -348,6 +348,7 @@ impl Bake {
                 triangles: mesh.triangles.len() as u32,
                 samples: 1,
                 secondary: 1,
+                light_bins: false,
                 reflections: 2,
                 seed: 1,
                 channels,
