@@ -785,10 +785,6 @@ spp = 64
 reflections = 2
 seed = 0
 
-# N2: directions per first hit (see scenes/vitrine/bake.toml).
-[vertex]
-secondary = 32
-
 # Scaled so the lit floor comes out near 0.6-0.8 (the map's irradiance on an upward plane is
 # about 14 W/m^2 at intensity 1).
 [environment]
@@ -879,6 +875,10 @@ alpha = 0.1
 editable = true
 family = "diffuse"
 kd = [0.8, 0.4, 0.18]
+
+# N2 (`[vertex] secondary`) stays at its default 4: T1 also draws one direction in every light
+# bin per first hit (`light_bins`, on by default), so the sun's bin no longer depends on a few
+# lucky BRDF directions (docs/vertex.md, "Light-bin sampling").
 """)
 
 
