@@ -1,15 +1,29 @@
-//! Ray queries over all scene triangles: a compressed wide BVH (obvhs' CWBVH) for traversal and
-//! our own Moeller-Trumbore test, which also returns the barycentrics we need for shading.
+//! Ray queries over all scene triangles. obvhs builds the BVH (a compressed wide BVH8, CWBVH);
+//! traversal ([`traverse`]) and the triangle test ([`triangle`]) are ours, because the ray core
+//! must be watertight and as fast as Embree, and obvhs' traversal is neither (see those
+//! modules). Triangles are copied into BVH leaf order at build, so a leaf's triangles are
+//! contiguous in memory.
+//!
+//! Answers are deterministic: one ray's hit (triangle, t, barycentrics) depends only on the
+//! ray and the scene, not on the thread or on the SIMD path taken (AVX2 when the CPU has it,
+//! else the portable code; the same operations, so the same results bit for bit).
 
-use glam::{Vec2, Vec3, Vec3A};
+mod traverse;
+mod triangle;
+
+#[cfg(test)]
+mod tests;
+
+use glam::{Vec2, Vec3};
 use obvhs::{
     cwbvh::{builder::build_cwbvh_from_tris, CwBvh},
-    ray::{Ray, RayHit},
     triangle::Triangle,
     BvhBuildParams,
 };
 
 use crate::scene::Scene;
+use traverse::RayNode;
+use triangle::{RayTri, Tri};
 
 /// A closest hit: distance, triangle index into `Scene::triangles`, barycentrics of vertices
 /// 1 and 2.
@@ -20,20 +34,14 @@ pub struct Hit {
     pub bary: Vec2,
 }
 
-/// Triangle in the layout the intersection test wants, in BVH leaf order.
-#[derive(Clone, Copy, Debug)]
-struct PackedTriangle {
-    v0: Vec3A,
-    e1: Vec3A,
-    e2: Vec3A,
-}
-
 pub struct Accel {
     bvh: CwBvh,
-    /// Triangles reordered so the BVH's primitive ids index them directly (cache friendly).
-    packed: Vec<PackedTriangle>,
-    /// Scene triangle index of each packed triangle.
+    /// Triangles in BVH leaf order: the BVH's primitive ids index them directly.
+    tris: Vec<Tri>,
+    /// Scene triangle index of each leaf-order triangle.
     original: Vec<u32>,
+    /// Take the AVX2 path (detected at build).
+    avx2: bool,
 }
 
 impl Accel {
@@ -52,11 +60,13 @@ impl Accel {
 
     /// Builds from raw triangles (scene triangle i = `tris[i]`).
     pub fn from_triangles(tris: &[Triangle]) -> Accel {
+        let avx2 = detect_avx2();
         if tris.is_empty() {
             return Accel {
                 bvh: CwBvh::default(),
-                packed: Vec::new(),
+                tris: Vec::new(),
                 original: Vec::new(),
+                avx2,
             };
         }
         // Pre-splitting large triangles (slow_build) pays off on scenes mixing big walls with
@@ -67,100 +77,101 @@ impl Accel {
             &mut std::time::Duration::default(),
         );
         let original: Vec<u32> = bvh.primitive_indices.clone();
-        let packed = original
+        let leaf_tris = original
             .iter()
             .map(|&i| {
                 let t = &tris[i as usize];
-                PackedTriangle {
-                    v0: t.v0,
-                    e1: t.v1 - t.v0,
-                    e2: t.v2 - t.v0,
+                Tri {
+                    v: [t.v0, t.v1, t.v2],
                 }
             })
             .collect();
         Accel {
             bvh,
-            packed,
+            tris: leaf_tris,
             original,
+            avx2,
         }
     }
 
+    /// Number of triangles referenced by the BVH's leaves (spatial splits may repeat one).
     pub fn triangle_count(&self) -> usize {
-        self.packed.len()
+        self.tris.len()
     }
 
     /// Closest hit with t in (tmin, tmax).
     #[inline]
     pub fn intersect(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
-        if self.packed.is_empty() {
-            return None;
-        }
-        let ray = Ray::new(origin.into(), dir.into(), tmin, tmax);
-        let mut hit = RayHit::none();
-        let mut best_bary = Vec2::ZERO;
-        let packed = &self.packed;
-        let found = self.bvh.ray_traverse(ray, &mut hit, |r, id| {
-            match intersect_triangle(&packed[id], r) {
-                Some((t, b)) if t < r.tmax => {
-                    best_bary = b;
-                    t
-                }
-                _ => f32::INFINITY,
-            }
-        });
-        if !found {
-            return None;
-        }
-        Some(Hit {
-            t: hit.t,
-            triangle: self.original[hit.primitive_id as usize],
-            bary: best_bary,
-        })
+        self.query::<false>(origin, dir, tmin, tmax, self.avx2)
+            .map(|(id, t, b1, b2)| Hit {
+                t,
+                triangle: self.original[id as usize],
+                bary: Vec2::new(b1, b2),
+            })
     }
 
-    /// True when anything blocks the segment (tmin, tmax) along `dir` from `origin`.
+    /// True when anything blocks the open segment (tmin, tmax) along `dir` from `origin`.
     #[inline]
     pub fn occluded(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> bool {
-        if self.packed.is_empty() {
-            return false;
+        self.query::<true>(origin, dir, tmin, tmax, self.avx2)
+            .is_some()
+    }
+
+    #[inline(always)]
+    fn query<const ANY: bool>(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        tmin: f32,
+        tmax: f32,
+        avx2: bool,
+    ) -> Option<(u32, f32, f32, f32)> {
+        if self.tris.is_empty() {
+            return None;
         }
-        let ray = Ray::new(origin.into(), dir.into(), tmin, tmax);
-        let packed = &self.packed;
-        !self.bvh.ray_traverse_miss(ray, |r, id| {
-            intersect_triangle(&packed[id], r).map_or(f32::INFINITY, |(t, _)| t)
-        })
+        let rn = RayNode::new(origin, dir, tmin);
+        let rt = RayTri::new(origin, dir);
+        #[cfg(target_arch = "x86_64")]
+        if avx2 {
+            // SAFETY: `avx2` is true only when `detect_avx2` found AVX2 on this CPU (or a test
+            // asked for it after checking the same).
+            return unsafe { traverse_avx2::<ANY>(&self.bvh.nodes, &self.tris, &rn, &rt, tmax) };
+        }
+        let _ = avx2;
+        traverse::traverse::<ANY>(&self.bvh.nodes, &self.tris, &rn, &rt, tmax)
     }
 }
 
-/// Moeller-Trumbore, two-sided. Returns t within the ray's [tmin, tmax] and the barycentrics of
-/// vertices 1 and 2. Computed in f32 with the edge vectors precomputed.
-#[inline(always)]
-fn intersect_triangle(tri: &PackedTriangle, ray: &Ray) -> Option<(f32, Vec2)> {
-    let p = ray.direction.cross(tri.e2);
-    let det = tri.e1.dot(p);
-    if det == 0.0 || !det.is_finite() {
-        return None;
+fn detect_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        is_x86_feature_detected!("avx2")
     }
-    let inv_det = 1.0 / det;
-    let s = ray.origin - tri.v0;
-    let u = s.dot(p) * inv_det;
-    if !(0.0..=1.0).contains(&u) {
-        return None;
-    }
-    let q = s.cross(tri.e1);
-    let v = ray.direction.dot(q) * inv_det;
-    if v < 0.0 || u + v > 1.0 {
-        return None;
-    }
-    let t = tri.e2.dot(q) * inv_det;
-    if t > ray.tmin && t <= ray.tmax {
-        Some((t, Vec2::new(u, v)))
-    } else {
-        None
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
     }
 }
 
-/// Brute-force closest hit over all triangles; the reference the BVH is tested against.
+/// The same traversal compiled for AVX2: the node test's eight lanes become one 256-bit
+/// vector. No FMA is enabled, so the arithmetic (and every answer) equals the portable path's.
+///
+/// # Safety
+/// The CPU must support AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn traverse_avx2<const ANY: bool>(
+    nodes: &[obvhs::cwbvh::node::CwBvhNode],
+    tris: &[Tri],
+    rn: &RayNode,
+    rt: &RayTri,
+    tmax: f32,
+) -> Option<(u32, f32, f32, f32)> {
+    traverse::traverse::<ANY>(nodes, tris, rn, rt, tmax)
+}
+
+/// Brute-force closest hit over all triangles (the first of equal distances), with the same
+/// triangle test as the BVH; the reference the BVH is tested against.
 pub fn brute_force_intersect(
     tris: &[Triangle],
     origin: Vec3,
@@ -168,22 +179,20 @@ pub fn brute_force_intersect(
     tmin: f32,
     tmax: f32,
 ) -> Option<Hit> {
-    let ray = Ray::new(origin.into(), dir.into(), tmin, tmax);
+    let rt = RayTri::new(origin, dir);
     let mut best: Option<Hit> = None;
+    let mut tmax = tmax;
     for (i, t) in tris.iter().enumerate() {
-        let packed = PackedTriangle {
-            v0: t.v0,
-            e1: t.v1 - t.v0,
-            e2: t.v2 - t.v0,
+        let tri = Tri {
+            v: [t.v0, t.v1, t.v2],
         };
-        if let Some((th, b)) = intersect_triangle(&packed, &ray) {
-            if best.is_none_or(|h| th < h.t) {
-                best = Some(Hit {
-                    t: th,
-                    triangle: i as u32,
-                    bary: b,
-                });
-            }
+        if let Some((t, b1, b2)) = triangle::intersect(&tri, &rt, tmin, tmax) {
+            tmax = t;
+            best = Some(Hit {
+                t,
+                triangle: i as u32,
+                bary: Vec2::new(b1, b2),
+            });
         }
     }
     best

@@ -1,0 +1,315 @@
+//! The BVH against brute force (random and structured scenes), watertightness at shared edges
+//! and vertices of closed meshes, rays starting next to a wall, and the AVX2 path against the
+//! portable one.
+
+use glam::{Vec2, Vec3};
+use obvhs::triangle::Triangle;
+
+use super::{brute_force_intersect, Accel};
+use crate::sampling::{uniform_sphere, Rng};
+
+fn tri(a: Vec3, b: Vec3, c: Vec3) -> Triangle {
+    Triangle {
+        v0: a.into(),
+        v1: b.into(),
+        v2: c.into(),
+    }
+}
+
+fn rand3(rng: &mut Rng) -> Vec3 {
+    Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32())
+}
+
+fn random_triangles(n: usize, rng: &mut Rng) -> Vec<Triangle> {
+    (0..n)
+        .map(|_| {
+            let c = rand3(rng) * 4.0 - 2.0;
+            let mut v = || c + (rand3(rng) - 0.5) * 0.6;
+            tri(v(), v(), v())
+        })
+        .collect()
+}
+
+/// Closed mesh: a cube [-1, 1]^3, each face an n x n grid of quads split in two, vertices
+/// shared (computed once per grid point, so shared edges are bit-identical).
+fn grid_cube(n: usize) -> (Vec<Vec3>, Vec<[usize; 3]>) {
+    let mut pos = Vec::new();
+    let mut idx = Vec::new();
+    for axis in 0..3 {
+        for side in [-1.0f32, 1.0] {
+            let base = pos.len();
+            for i in 0..=n {
+                for j in 0..=n {
+                    let s = -1.0 + 2.0 * i as f32 / n as f32;
+                    let t = -1.0 + 2.0 * j as f32 / n as f32;
+                    let mut p = [0.0f32; 3];
+                    p[axis] = side;
+                    p[(axis + 1) % 3] = s;
+                    p[(axis + 2) % 3] = t;
+                    pos.push(Vec3::from(p));
+                }
+            }
+            for i in 0..n {
+                for j in 0..n {
+                    let a = base + i * (n + 1) + j;
+                    let (b, c, d) = (a + n + 1, a + n + 2, a + 1);
+                    idx.push([a, b, c]);
+                    idx.push([a, c, d]);
+                }
+            }
+        }
+    }
+    // Weld the duplicated cube edges/corners: identical coordinates, one index.
+    let mut welded: Vec<Vec3> = Vec::new();
+    let remap: Vec<usize> = pos
+        .iter()
+        .map(|p| match welded.iter().position(|q| q == p) {
+            Some(k) => k,
+            None => {
+                welded.push(*p);
+                welded.len() - 1
+            }
+        })
+        .collect();
+    let idx = idx
+        .iter()
+        .map(|t| [remap[t[0]], remap[t[1]], remap[t[2]]])
+        .collect();
+    (welded, idx)
+}
+
+/// Closed mesh: an octahedron subdivided `levels` times onto the unit sphere, then moved off
+/// the origin (vertices shared by index).
+fn sphere(levels: usize, center: Vec3) -> (Vec<Vec3>, Vec<[usize; 3]>) {
+    let mut pos = vec![Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
+    let mut idx = vec![
+        [0, 2, 4],
+        [2, 1, 4],
+        [1, 3, 4],
+        [3, 0, 4],
+        [2, 0, 5],
+        [1, 2, 5],
+        [3, 1, 5],
+        [0, 3, 5],
+    ];
+    for _ in 0..levels {
+        let mut mid = std::collections::HashMap::new();
+        let mut next = Vec::new();
+        for t in &idx {
+            let mut m = [0usize; 3];
+            for k in 0..3 {
+                let (a, b) = (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3]));
+                m[k] = *mid.entry((a, b)).or_insert_with(|| {
+                    pos.push((pos[a] + pos[b]).normalize());
+                    pos.len() - 1
+                });
+            }
+            next.push([t[0], m[0], m[2]]);
+            next.push([m[0], t[1], m[1]]);
+            next.push([m[2], m[1], t[2]]);
+            next.push([m[0], m[1], m[2]]);
+        }
+        idx = next;
+    }
+    let pos = pos.iter().map(|p| *p * 1.7 + center).collect();
+    (pos, idx)
+}
+
+fn triangles(mesh: &(Vec<Vec3>, Vec<[usize; 3]>)) -> Vec<Triangle> {
+    mesh.1
+        .iter()
+        .map(|t| tri(mesh.0[t[0]], mesh.0[t[1]], mesh.0[t[2]]))
+        .collect()
+}
+
+/// Checks the BVH's closest hit and occlusion against brute force; returns the hits.
+fn check_against_brute_force(
+    accel: &Accel,
+    tris: &[Triangle],
+    o: Vec3,
+    d: Vec3,
+    tmax: f32,
+) -> bool {
+    let a = accel.intersect(o, d, 0.0, tmax);
+    let b = brute_force_intersect(tris, o, d, 0.0, tmax);
+    match (a, b) {
+        (None, None) => {}
+        (Some(a), Some(b)) => {
+            // The same test on the same triangle: bit-identical t; another triangle only on an
+            // exact tie (a shared edge).
+            assert_eq!(a.t, b.t, "ray {o} {d}: bvh {a:?} vs brute force {b:?}");
+            if a.triangle == b.triangle {
+                assert_eq!(a.bary, b.bary);
+            }
+        }
+        (a, b) => panic!("ray {o} {d}: bvh {a:?} vs brute force {b:?}"),
+    }
+    // Occlusion agrees on the open segment, just short of and just past the hit.
+    let tb = b.map_or(10.0, |h| h.t);
+    assert!(!accel.occluded(o, d, 0.0, tb * 0.999) || b.is_none());
+    assert_eq!(
+        accel.occluded(o, d, 0.0, tb * 0.999),
+        brute_force_intersect(tris, o, d, 0.0, tb * 0.999).is_some()
+    );
+    if b.is_some() {
+        assert!(
+            accel.occluded(o, d, 0.0, tb * 1.001),
+            "ray {o} {d}: occlusion missed"
+        );
+    }
+    b.is_some()
+}
+
+#[test]
+fn random_scene_matches_brute_force() {
+    let mut rng = Rng::for_sample(1, 2, 3);
+    let tris = random_triangles(3000, &mut rng);
+    let accel = Accel::from_triangles(&tris);
+    let mut hits = 0;
+    for i in 0..4000 {
+        let o = rand3(&mut rng) * 6.0 - 3.0;
+        let d = uniform_sphere(rng.next_vec2());
+        // Some rays axis-aligned (zero direction components).
+        let d = match i % 8 {
+            0 => Vec3::new(d.x.signum(), 0.0, 0.0),
+            1 => Vec3::new(0.0, d.y, d.z).normalize(),
+            _ => d,
+        };
+        let tmax = if i % 3 == 0 { 2.0 } else { f32::INFINITY };
+        hits += check_against_brute_force(&accel, &tris, o, d, tmax) as usize;
+    }
+    assert!(hits > 400, "only {hits} rays hit: the test would be weak");
+}
+
+#[test]
+fn structured_scenes_match_brute_force() {
+    let mut rng = Rng::for_sample(4, 5, 6);
+    // A cube grid (axis-aligned faces: zero-thickness boxes), a sphere, and both at once.
+    let cube = triangles(&grid_cube(12));
+    let ball = triangles(&sphere(4, Vec3::new(3.0, 0.5, 0.0)));
+    let both: Vec<Triangle> = cube.iter().chain(ball.iter()).copied().collect();
+    for tris in [&cube, &ball, &both] {
+        let accel = Accel::from_triangles(tris);
+        let mut hits = 0;
+        for _ in 0..3000 {
+            let o = rand3(&mut rng) * 8.0 - 4.0;
+            let d = uniform_sphere(rng.next_vec2());
+            hits += check_against_brute_force(&accel, tris, o, d, f32::INFINITY) as usize;
+        }
+        assert!(hits > 150, "only {hits} rays hit");
+    }
+}
+
+/// Rays from inside closed meshes aimed exactly at vertices and at points of shared edges
+/// never miss, with the BVH or brute force, closest hit or occlusion.
+#[test]
+fn closed_meshes_are_watertight() {
+    let meshes = [grid_cube(7), sphere(3, Vec3::new(0.25, -0.5, 0.125))];
+    for (m, mesh) in meshes.iter().enumerate() {
+        let tris = triangles(mesh);
+        let accel = Accel::from_triangles(&tris);
+        let center = mesh.0.iter().copied().sum::<Vec3>() / mesh.0.len() as f32;
+        let origins = [
+            center,
+            center + Vec3::new(0.3, -0.2, 0.1),
+            center + Vec3::new(-0.61, 0.37, 0.53),
+        ];
+        let mut targets: Vec<Vec3> = mesh.0.clone();
+        for t in &mesh.1 {
+            for k in 0..3 {
+                let (a, b) = (mesh.0[t[k]], mesh.0[t[(k + 1) % 3]]);
+                for s in [0.5f32, 0.25, 1.0 / 3.0, 0.9] {
+                    targets.push(a + (b - a) * s);
+                }
+            }
+        }
+        let mut checked = 0;
+        for o in origins {
+            for p in &targets {
+                let d = (*p - o).normalize();
+                let h = accel.intersect(o, d, 0.0, f32::INFINITY);
+                assert!(h.is_some(), "mesh {m}: ray {o} -> {p} escaped (bvh)");
+                assert!(
+                    accel.occluded(o, d, 0.0, f32::INFINITY),
+                    "mesh {m}: {o} -> {p} occlusion"
+                );
+                let b = brute_force_intersect(&tris, o, d, 0.0, f32::INFINITY);
+                assert!(
+                    b.is_some(),
+                    "mesh {m}: ray {o} -> {p} escaped (brute force)"
+                );
+                let (h, b) = (h.unwrap(), b.unwrap());
+                if h.t != b.t {
+                    let tb = tris[b.triangle as usize];
+                    let th = tris[h.triangle as usize];
+                    let again = accel.intersect(o, d, 0.0, h.t);
+                    panic!("mesh {m} o {o} p {p} d {d}: bvh {h:?} brute {b:?} tb {tb:?} th {th:?} again {again:?}");
+                }
+                checked += 1;
+            }
+        }
+        assert!(checked > 1000);
+    }
+}
+
+/// A ray leaving a wall next to a corner hits the adjacent wall however close (obvhs' own
+/// traversal culled boxes nearer than 1e-4).
+#[test]
+fn rays_leaving_next_to_a_corner_hit_the_adjacent_wall() {
+    let tris = triangles(&grid_cube(4));
+    let accel = Accel::from_triangles(&tris);
+    for k in 0..50 {
+        let gap = 1e-6 * (1 + k) as f32;
+        // On the floor y = -1, gap away from the wall x = -1, heading to it and up.
+        let o = Vec3::new(-1.0 + gap, -1.0 + 1e-7, 0.3);
+        let d = Vec3::new(-1.0, 0.5, 0.1).normalize();
+        let h = accel
+            .intersect(o, d, 0.0, f32::INFINITY)
+            .expect("the adjacent wall");
+        assert!((h.t - gap / -d.x).abs() < 1e-6, "t {} for gap {gap}", h.t);
+        assert!(accel.occluded(o, d, 0.0, 1.0));
+    }
+}
+
+#[test]
+fn avx2_and_portable_paths_agree_bit_for_bit() {
+    let mut accel = Accel::from_triangles(&[]);
+    if !accel.avx2 {
+        eprintln!("no AVX2 on this CPU: nothing to compare");
+        return;
+    }
+    let mut rng = Rng::for_sample(7, 8, 9);
+    let mut tris = random_triangles(2000, &mut rng);
+    tris.extend(triangles(&grid_cube(5)));
+    accel = Accel::from_triangles(&tris);
+    for _ in 0..5000 {
+        let o = rand3(&mut rng) * 6.0 - 3.0;
+        let d = uniform_sphere(rng.next_vec2());
+        let a = accel.query::<false>(o, d, 0.0, f32::INFINITY, true);
+        let p = accel.query::<false>(o, d, 0.0, f32::INFINITY, false);
+        assert_eq!(
+            a.map(|h| (h.0, h.1.to_bits(), h.2.to_bits(), h.3.to_bits())),
+            p.map(|h| (h.0, h.1.to_bits(), h.2.to_bits(), h.3.to_bits()))
+        );
+        let a = accel.query::<true>(o, d, 0.0, 1.5, true);
+        let p = accel.query::<true>(o, d, 0.0, 1.5, false);
+        assert_eq!(a.map(|h| h.0), p.map(|h| h.0));
+    }
+}
+
+#[test]
+fn empty_scene_has_no_hits() {
+    let accel = Accel::from_triangles(&[]);
+    assert!(accel
+        .intersect(Vec3::ZERO, Vec3::X, 0.0, f32::INFINITY)
+        .is_none());
+    assert!(!accel.occluded(Vec3::ZERO, Vec3::X, 0.0, f32::INFINITY));
+    let one = [tri(
+        Vec3::new(1.0, -1.0, -1.0),
+        Vec3::new(1.0, 1.0, -1.0),
+        Vec3::new(1.0, 0.0, 1.0),
+    )];
+    let h = Accel::from_triangles(&one).intersect(Vec3::ZERO, Vec3::X, 0.0, f32::INFINITY);
+    assert_eq!(h.map(|h| h.t), Some(1.0));
+    let _ = Vec2::ZERO;
+}
