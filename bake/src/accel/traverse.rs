@@ -166,6 +166,7 @@ pub(super) fn traverse<const ANY: bool>(
                 (mask & 0xff00_0000) | node.imask as u32,
             );
             prims = (node.primitive_base_idx, mask & 0x00ff_ffff);
+            prefetch_triangles(tris, prims);
         } else {
             group = (0, 0);
         }
@@ -177,4 +178,33 @@ pub(super) fn traverse<const ANY: bool>(
             group = stack[sp];
         }
     }
+}
+
+/// Asks for the cache lines of all the triangles a node's leaves will test, before testing the
+/// first, so their misses overlap. Triangle and node loads are the hottest instructions in
+/// `perf` (the ray core is memory-bound at 100K and 1M triangles); measured a few percent,
+/// within the noise of the shared machine. Prefetching the child nodes hit as well measured
+/// nothing, so it is not done.
+#[inline(always)]
+fn prefetch_triangles(tris: &[Tri], prims: (u32, u32)) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        let mut bits = prims.1;
+        while bits != 0 {
+            let i = (prims.0 + bits.trailing_zeros()) as usize;
+            bits &= bits - 1;
+            if let Some(t) = tris.get(i) {
+                let p = t as *const Tri as *const i8;
+                // SAFETY: a prefetch only hints the cache and never faults; p and p + 32 lie
+                // inside the 48-byte triangle (its two cache lines at most).
+                unsafe {
+                    _mm_prefetch::<_MM_HINT_T0>(p);
+                    _mm_prefetch::<_MM_HINT_T0>(p.add(32));
+                }
+            }
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (tris, prims);
 }
