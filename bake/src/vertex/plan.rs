@@ -15,12 +15,11 @@ use rayon::prelude::*;
 use crate::integrator::Integrator;
 use crate::pixel::{SlotLayout, SlotPlan};
 use crate::progress::{Progress, Stage};
-use crate::sampling::Rng;
 use crate::scene::{PunctualLight, Scene};
 use crate::units::human_bytes;
 
 use super::error::VertexError;
-use super::frame::{first_direction, VertexFrame};
+use super::frame::{FirstDirections, VertexFrame};
 use super::write::value_bytes;
 use super::VertexBakeOptions;
 
@@ -380,9 +379,9 @@ fn materials_reached(
         integ.eps(),
     );
     let mut out: Vec<u32> = Vec::new();
+    let first = FirstDirections::new(opts.seed, v, opts.samples);
     for i in 0..opts.samples {
-        let mut rng = Rng::for_sample(opts.seed, v as u64, i as u64);
-        let w1 = frame.to_world(first_direction(&mut rng));
+        let w1 = frame.to_world(first.get(i));
         let Some(hit) = integ.accel.intersect(frame.origin, w1, 0.0, f32::INFINITY) else {
             continue;
         };

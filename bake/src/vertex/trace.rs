@@ -3,12 +3,12 @@
 //! over the group's active slots ([`VertexResult`]).
 //!
 //! The quantities are those `prt_formats::vertex` documents. For T1 and T2, N1 directions w1
-//! leave the vertex uniformly over its hemisphere (pdf 1/(2 pi)); at a first hit y, N2
-//! directions w2 come from y's coefficient-independent mixture ([`BakeModel`]) and, with three
-//! reflections, each w2 that hits z continues with one w3 from z's mixture. Every sample i of
-//! vertex v draws from its own stream `Rng::for_sample(seed, v, i)` in a fixed order: 2
-//! numbers for w1, then 3 per w2 whatever happens, so the pre-pass (which draws only w1) sees
-//! the bake's very rays. The w3 directions (three reflections) draw from a second stream,
+//! leave the vertex, each uniform over its hemisphere (pdf 1/(2 pi)), together a shifted
+//! lattice ([`FirstDirections`], shared with the pre-pass, which so sees the bake's very
+//! rays); at a first hit y, N2 directions w2 come from y's coefficient-independent mixture
+//! ([`BakeModel`]) and, with three reflections, each w2 that hits z continues with one w3 from
+//! z's mixture. Every sample i of vertex v draws from its own stream
+//! `Rng::for_sample(seed, v, i)`: 3 numbers per w2 whatever happens. The w3 directions (three reflections) draw from a second stream,
 //! `Rng::for_sample(seed, v, W3_STREAM + i)`, 3 numbers per w2 whether or not a w3 is
 //! needed: T1 is then the same, bit for bit, whether T2 is baked or not.
 //!
@@ -36,7 +36,7 @@ use crate::sampling::Rng;
 use super::bins::{bin_density, light_bin, sample_bin};
 use super::direct::DirectCube;
 use super::error::VertexError;
-use super::frame::{first_direction, VertexFrame};
+use super::frame::{FirstDirections, VertexFrame};
 use super::plan::VertexPlan;
 use super::VertexBakeOptions;
 
@@ -364,11 +364,12 @@ impl<'a> VertexTracer<'a> {
         let mut ys = Slots::EMPTY;
         let mut zs = Slots::EMPTY;
         let mut rays = 0u64;
+        let first = FirstDirections::new(self.opts.seed, v, self.opts.samples);
         for i in 0..self.opts.samples {
             let mut rng = Rng::for_sample(self.opts.seed, v as u64, i as u64);
             let mut rng3 =
                 three.then(|| Rng::for_sample(self.opts.seed, v as u64, W3_STREAM + i as u64));
-            let w1_local = first_direction(&mut rng);
+            let w1_local = first.get(i);
             let w1 = frame.to_world(w1_local);
             rays += 1;
             let Some(hit) = accel.intersect(frame.origin, w1, 0.0, f32::INFINITY) else {
