@@ -131,7 +131,10 @@ fn bin_spread(light_bins: bool, bin: Option<usize>) -> (usize, f64) {
         let mean = per_sample.iter().sum::<f64>() / n;
         let var = per_sample.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
         assert!(mean > 0.0, "bin {l} receives nothing");
-        eprintln!("bin {l}, light_bins {light_bins}: relative spread {}", var.sqrt() / mean);
+        eprintln!(
+            "bin {l}, light_bins {light_bins}: relative spread {}",
+            var.sqrt() / mean
+        );
         (l, var.sqrt() / mean)
     })
 }
