@@ -85,7 +85,7 @@ mod tests {
         let v = c.vertex.as_ref().unwrap();
         assert_eq!((v.secondary(), v.t0_terms()), (8, 24576));
         let d = VertexConfig::default();
-        assert_eq!((d.secondary(), d.t0_terms()), (4, 96));
+        assert_eq!((d.secondary(), d.t0_terms(), d.light_bins()), (4, 96, true));
         for (body, key) in [
             (
                 "mode = \"vertex\"\n[vertex]\nsecondary = 0",
@@ -104,6 +104,11 @@ mod tests {
                 "vertex.t0_terms",
             ),
             ("mode = \"vertex\"\n[vertex]\nsecundary = 3", "secundary"),
+            (
+                "mode = \"vertex\"\n[vertex]\nlight_bins = \"yes\"",
+                "light_bins",
+            ),
+            ("mode = \"vertex\"\n[vertex]\nlight_bins = 1", "light_bins"),
             ("[vertex]\nsecondary = 3", "mode = \"vertex\""),
         ] {
             let e = parse(&format!("scene = \"x.gltf\"\n{body}"))
