@@ -348,6 +348,7 @@ pub fn run_vertex(
         t0_terms: vcfg.t0_terms() as usize,
         precision: s.precision.unwrap_or(Precision::F16),
         light_bins: vcfg.light_bins(),
+        compression: vcfg.compression(),
     };
     // Refuse what the mode cannot bake before any work.
     opts.validate()?;

@@ -18,6 +18,7 @@
 #![warn(missing_docs)]
 
 pub mod basis;
+pub mod clustered;
 pub mod container;
 pub mod envmap;
 pub mod family;

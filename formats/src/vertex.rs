@@ -38,11 +38,16 @@
 use serde::{Deserialize, Serialize};
 
 use crate::basis::ShadingBasis;
+use crate::clustered::{CompressionSettings, GroupCompression};
 use crate::family::Family;
 use crate::pixel::{BasisMeta, MaterialMeta, Precision};
 
-/// Version of the per-vertex schema (inside the container's own schema version).
-pub const VERTEX_SCHEMA_VERSION: u32 = 1;
+/// Version of the per-vertex schema (inside the container's own schema version). Version 2
+/// added compressed T1 and T2 ([`crate::clustered`]); version 1 files (always dense) are
+/// still read.
+pub const VERTEX_SCHEMA_VERSION: u32 = 2;
+/// The oldest per-vertex schema version this build reads.
+pub const OLDEST_VERTEX_SCHEMA_VERSION: u32 = 1;
 
 /// Face size of the cube map of T0 (direct light, Haar): 6 x 64 x 64 texels.
 pub const DIRECT_CUBE: usize = 64;
@@ -182,6 +187,10 @@ pub struct VertexGroupMeta {
     pub scale_t1: f32,
     /// Stored T2 value = true value / `scale_t2`.
     pub scale_t2: f32,
+    /// T1 and T2 stored compressed (clustered Tucker, [`crate::clustered`]; the scales then
+    /// apply to the cores), or dense when absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub compression: Option<GroupCompression>,
 }
 
 /// A family's Tucker shading basis as stored: the [`ShadingBasis`] with its tables emptied
@@ -253,6 +262,9 @@ pub struct VertexBakeMeta {
     pub camera: crate::pixel::CameraMeta,
     /// Figures of the bake that depend only on its inputs.
     pub stats: VertexBakeStats,
+    /// The settings T1 and T2 were compressed with (absent: stored dense).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub compression: Option<CompressionSettings>,
 }
 
 impl VertexBakeMeta {
@@ -273,9 +285,12 @@ impl VertexBakeMeta {
     /// each group uses. (The shading bases themselves are checked with
     /// `ShadingBasis::validate` once their tables are read back.)
     pub fn validate(&self) -> Result<(), String> {
-        if self.vertex_schema_version != VERTEX_SCHEMA_VERSION {
+        if !(OLDEST_VERTEX_SCHEMA_VERSION..=VERTEX_SCHEMA_VERSION)
+            .contains(&self.vertex_schema_version)
+        {
             return Err(format!(
-                "vertex schema version {} (this build reads {VERTEX_SCHEMA_VERSION})",
+                "vertex schema version {} (this build reads {OLDEST_VERTEX_SCHEMA_VERSION} to \
+                 {VERTEX_SCHEMA_VERSION})",
                 self.vertex_schema_version
             ));
         }
@@ -339,6 +354,24 @@ impl VertexBakeMeta {
                     "group {gi}: {} material without a shading basis",
                     m.family
                 ));
+            }
+            if let Some(c) = &g.compression {
+                if c.clusters == 0 && g.vertices > 0 {
+                    return Err(format!("group {gi}: compressed with 0 clusters"));
+                }
+                if c.clusters > g.vertices {
+                    return Err(format!(
+                        "group {gi}: {} clusters for {} vertices",
+                        c.clusters, g.vertices
+                    ));
+                }
+                if c.t2.is_some() != (self.reflections >= 3) {
+                    return Err(format!(
+                        "group {gi}: compressed T2 present = {}, but reflections = {}",
+                        c.t2.is_some(),
+                        self.reflections
+                    ));
+                }
             }
             for s in [g.scale_t0, g.scale_t1, g.scale_t2] {
                 if !(s.is_finite() && s > 0.0) {
@@ -418,6 +451,30 @@ pub mod names {
     pub fn t2(g: usize) -> String {
         format!("v{g}.t2")
     }
+    /// Group `g`'s cluster of each vertex when T1 (and T2) are compressed, `[vertices_g]` u32
+    /// (`crate::clustered`).
+    pub fn clusters(g: usize) -> String {
+        format!("v{g}.clusters")
+    }
+    /// The compressed tensor `tensor` ("t1" or "t2") of group `g`: its part `part`, one of
+    /// [`TUCKER_RANKS`] (`[K, 3]` u32), [`TUCKER_FACTORS`] and [`TUCKER_CORE`] (flat, f32 or
+    /// f16) and [`TUCKER_VERTEX`] (`[vertices_g, B]`, f32 or f16); layout in
+    /// `crate::clustered`.
+    pub fn tucker(g: usize, tensor: &str, part: &str) -> String {
+        format!("v{g}.{tensor}.{part}")
+    }
+    /// T1's name in [`tucker`].
+    pub const T1: &str = "t1";
+    /// T2's name in [`tucker`].
+    pub const T2: &str = "t2";
+    /// Per-cluster ranks `(a, r, b)`.
+    pub const TUCKER_RANKS: &str = "ranks";
+    /// Light and element factors, cluster after cluster.
+    pub const TUCKER_FACTORS: &str = "factors";
+    /// Cores, cluster after cluster.
+    pub const TUCKER_CORE: &str = "core";
+    /// Each vertex's row of its cluster's vertex factor.
+    pub const TUCKER_VERTEX: &str = "vertex";
     /// Table `table` of shading basis `b`, f32 (flat).
     pub fn shading_table(b: usize, table: &str) -> String {
         format!("shading.{b}.{table}")

@@ -23,6 +23,20 @@ pub struct VertexConfig {
     /// directions, combined by multiple importance sampling (default true): far less
     /// speckle under small bright lights, for one shadow ray per bin above the horizon.
     pub light_bins: Option<bool>,
+    /// Store T1 and T2 compressed (clustered Tucker; docs/vertex.md "Compression"; default
+    /// true). The keys below tune it.
+    pub compress: Option<bool>,
+    /// Relative L2 error allowed per cluster of vertices and tensor, in [0, 1) (default
+    /// `crate::vertex::DEFAULT_COMPRESS_ERROR`): the ranks are the smallest meeting it.
+    pub compress_error: Option<f32>,
+    /// Vertices per cluster aimed at (default 256).
+    pub cluster_vertices: Option<u32>,
+    /// Largest light rank per cluster, 1 ..= 384 (default 64).
+    pub light_rank: Option<u32>,
+    /// Largest element (slot x SH) rank per cluster (default 64).
+    pub element_rank: Option<u32>,
+    /// Largest vertex rank per cluster (default 32).
+    pub vertex_rank: Option<u32>,
 }
 
 /// `[vertex] secondary`'s default (N2).
@@ -47,6 +61,22 @@ impl VertexConfig {
         self.light_bins.unwrap_or(true)
     }
 
+    /// The compression settings, defaults filled in; None when `compress = false`.
+    pub fn compression(&self) -> Option<prt_formats::clustered::CompressionSettings> {
+        use crate::vertex::{default_compression, DEFAULT_CLUSTER_VERTICES};
+        if !self.compress.unwrap_or(true) {
+            return None;
+        }
+        let d = default_compression();
+        Some(prt_formats::clustered::CompressionSettings {
+            error_target: self.compress_error.unwrap_or(d.error_target),
+            cluster_vertices: self.cluster_vertices.unwrap_or(DEFAULT_CLUSTER_VERTICES),
+            max_light_rank: self.light_rank.unwrap_or(d.max_light_rank),
+            max_element_rank: self.element_rank.unwrap_or(d.max_element_rank),
+            max_vertex_rank: self.vertex_rank.unwrap_or(d.max_vertex_rank),
+        })
+    }
+
     /// Checks the table's values; `mode` is the config's, which must be `vertex` for the table
     /// to be there at all.
     pub(super) fn validate(&self, c: &Checker, mode: Mode) -> Result<(), ConfigError> {
@@ -62,6 +92,25 @@ impl VertexConfig {
         if let Some(k) = self.t0_terms {
             let max = prt_formats::vertex::cube_len(prt_formats::vertex::DIRECT_CUBE) as u32;
             c.range_u32("vertex.t0_terms", k, 1, max)?;
+        }
+        if let Some(e) = self.compress_error {
+            if !(e.is_finite() && (0.0..1.0).contains(&e)) {
+                return Err(c.err(
+                    "vertex.compress_error",
+                    &format!("{e} is not a relative error in [0, 1)"),
+                ));
+            }
+        }
+        let bins = prt_formats::vertex::cube_len(prt_formats::vertex::T1_LIGHT_CUBE) as u32;
+        for (key, value, max) in [
+            ("vertex.cluster_vertices", self.cluster_vertices, u32::MAX),
+            ("vertex.light_rank", self.light_rank, bins),
+            ("vertex.element_rank", self.element_rank, u32::MAX),
+            ("vertex.vertex_rank", self.vertex_rank, u32::MAX),
+        ] {
+            if let Some(v) = value {
+                c.range_u32(key, v, 1, max)?;
+            }
         }
         Ok(())
     }

@@ -18,10 +18,11 @@ use crate::integrator::Integrator;
 use crate::progress::{Progress, Stage};
 use crate::scene::{Environment, Scene};
 
+use super::compress::{compress_group, GroupShape};
 use super::error::VertexError;
 use super::plan::{persisted, VertexPlan, BLOCK_VERTICES};
 use super::trace::VertexTracer;
-use super::write::store;
+use super::write::{store, Stored};
 use super::{MeshData, VertexBake, VertexBakeOptions, VertexGroupData};
 
 /// Vertices whose results are gathered before being appended to their group's buffers: bounds
@@ -136,8 +137,45 @@ pub fn bake_vertex_with(
             0.0
         });
         let (t0_value, scale_t0) = store(std::mem::take(&mut buf.t0_value), opts.precision);
-        let (t1, scale_t1) = store(std::mem::take(&mut buf.t1), opts.precision);
-        let (t2, scale_t2) = store(std::mem::take(&mut buf.t2), opts.precision);
+        let (t1, t2, scale_t1, scale_t2, compression, compressed) = match &opts.compression {
+            None => {
+                let (t1, scale_t1) = store(std::mem::take(&mut buf.t1), opts.precision);
+                let (t2, scale_t2) = store(std::mem::take(&mut buf.t2), opts.precision);
+                (t1, t2, scale_t1, scale_t2, None, None)
+            }
+            Some(settings) => {
+                let shape = GroupShape {
+                    active: g.active.len(),
+                    t2_slots: plan.t2_slots.len(),
+                    channels: plan.slots.channels,
+                    reflections: opts.reflections,
+                };
+                let c = compress_group(
+                    scene,
+                    &plan.normals,
+                    &g.vertices,
+                    std::mem::take(&mut buf.t1),
+                    std::mem::take(&mut buf.t2),
+                    shape,
+                    settings,
+                    opts.precision,
+                )?;
+                if let Some(p) = progress {
+                    p.note(&format!(
+                        "compressed {}: {}",
+                        scene.materials[g.material as usize].name, c.summary
+                    ));
+                }
+                (
+                    Stored::F32(Vec::new()),
+                    Stored::F32(Vec::new()),
+                    c.scale_t1,
+                    c.scale_t2,
+                    Some(c.meta),
+                    Some(c.data),
+                )
+            }
+        };
         let rows = tracer.group_shading(gi).map_or(1, |b| b.ranks.i + 1);
         groups_meta.push(VertexGroupMeta {
             material: g.material,
@@ -153,6 +191,7 @@ pub fn bake_vertex_with(
             scale_t0,
             scale_t1,
             scale_t2,
+            compression,
         });
         groups.push(VertexGroupData {
             vertices: g.vertices.clone(),
@@ -161,6 +200,7 @@ pub fn bake_vertex_with(
             visibility: buf.visibility,
             t1,
             t2,
+            compressed,
         });
     }
     drop(stage);
@@ -212,6 +252,7 @@ pub fn bake_vertex_with(
             allocation: plan.slots.reasons.clone(),
             t0_truncation_error: truncation,
         },
+        compression: opts.compression,
     };
     meta.validate().map_err(VertexError::Inconsistent)?;
     let vertices = plan.grouped_vertices() as f64;

@@ -68,6 +68,19 @@ pub enum VertexError {
         /// What the Haar transform reported.
         message: String,
     },
+    /// A compression setting is unusable.
+    #[error("{key} = {value}: {reason}")]
+    BadSetting {
+        /// The option (as the config names it).
+        key: &'static str,
+        /// Its value.
+        value: String,
+        /// What it must be.
+        reason: &'static str,
+    },
+    /// Compressing T1 or T2 failed (an eigendecomposition did not converge).
+    #[error("compressing the transfer tensors: {0}")]
+    Compression(String),
     /// The slot allocation failed (a missing or mis-sized PCA basis, too many slots).
     #[error(transparent)]
     Layout(#[from] PixelError),

@@ -24,6 +24,8 @@
 
 mod bake;
 mod bins;
+mod cluster;
+mod compress;
 mod direct;
 mod error;
 mod frame;
@@ -36,6 +38,7 @@ mod write;
 mod tests;
 
 use prt_formats::basis::{BrdfBasis, ShadingBasis};
+use prt_formats::clustered::CompressionSettings;
 use prt_formats::pixel::Precision;
 use prt_formats::vertex::{cube_len, VertexBakeMeta, DEFAULT_T0_TERMS, DIRECT_CUBE};
 
@@ -47,6 +50,7 @@ use crate::progress::Progress;
 use crate::scene::Scene;
 
 pub use bake::{bake_vertex_with, VertexTimings};
+pub use compress::StoredTucker;
 pub use direct::T0_TEXELS;
 pub use error::VertexError;
 pub use memory::VertexMemoryEstimate;
@@ -77,6 +81,9 @@ pub struct VertexBakeOptions {
     /// T1 also draws one direction in every light bin per first hit, combined with the BRDF
     /// draws by multiple importance sampling (`[vertex] light_bins`, default true).
     pub light_bins: bool,
+    /// Store T1 and T2 compressed with these settings (docs/vertex.md "Compression"), or
+    /// dense when None.
+    pub compression: Option<CompressionSettings>,
 }
 
 impl Default for VertexBakeOptions {
@@ -90,6 +97,7 @@ impl Default for VertexBakeOptions {
             t0_terms: DEFAULT_T0_TERMS,
             precision: Precision::F16,
             light_bins: true,
+            compression: None,
         }
     }
 }
@@ -119,8 +127,60 @@ impl VertexBakeOptions {
             self.t0_terms as u64,
             1,
             cube_len(DIRECT_CUBE) as u64,
-        )
+        )?;
+        if let Some(c) = &self.compression {
+            validate_compression(c)?;
+        }
+        Ok(())
     }
+}
+
+/// Default relative L2 error per cluster of compressed T1 and T2 (`[vertex] compress_error`).
+pub const DEFAULT_COMPRESS_ERROR: f32 = 0.1;
+/// Default vertices per cluster (`[vertex] cluster_vertices`).
+pub const DEFAULT_CLUSTER_VERTICES: u32 = 256;
+/// Default largest light rank (`[vertex] light_rank`): the thesis' light dimension.
+pub const DEFAULT_LIGHT_RANK: u32 = 64;
+/// Default largest element rank (`[vertex] element_rank`).
+pub const DEFAULT_ELEMENT_RANK: u32 = 64;
+/// Default largest vertex rank (`[vertex] vertex_rank`): the thesis' 32 eigenvectors.
+pub const DEFAULT_VERTEX_RANK: u32 = 32;
+
+/// The compression settings used when none are given but compression is on.
+pub fn default_compression() -> CompressionSettings {
+    CompressionSettings {
+        error_target: DEFAULT_COMPRESS_ERROR,
+        cluster_vertices: DEFAULT_CLUSTER_VERTICES,
+        max_light_rank: DEFAULT_LIGHT_RANK,
+        max_element_rank: DEFAULT_ELEMENT_RANK,
+        max_vertex_rank: DEFAULT_VERTEX_RANK,
+    }
+}
+
+/// Refuses compression settings that cannot work, naming the key.
+fn validate_compression(c: &CompressionSettings) -> Result<(), VertexError> {
+    if !(c.error_target.is_finite() && (0.0..1.0).contains(&c.error_target)) {
+        return Err(VertexError::BadSetting {
+            key: "vertex.compress_error",
+            value: c.error_target.to_string(),
+            reason: "a relative error in [0, 1)",
+        });
+    }
+    for (key, v) in [
+        ("vertex.cluster_vertices", c.cluster_vertices),
+        ("vertex.light_rank", c.max_light_rank),
+        ("vertex.element_rank", c.max_element_rank),
+        ("vertex.vertex_rank", c.max_vertex_rank),
+    ] {
+        if v == 0 {
+            return Err(VertexError::BadSetting {
+                key,
+                value: v.to_string(),
+                reason: "at least 1",
+            });
+        }
+    }
+    Ok(())
 }
 
 /// One group's tensors as they will be stored.
@@ -137,6 +197,18 @@ pub struct VertexGroupData {
     pub t1: Stored,
     /// `[vertices, 24, J, I, channels]` (divided by `scale_t2`); empty when reflections = 2.
     pub t2: Stored,
+    /// T1 and T2 compressed (then `t1` and `t2` are empty).
+    pub compressed: Option<CompressedGroupData>,
+}
+
+/// A group's T1 and T2 stored compressed (`prt_formats::clustered`).
+pub struct CompressedGroupData {
+    /// The cluster of each vertex of the group.
+    pub clusters: Vec<u32>,
+    /// T1 (its core divided by `scale_t1`).
+    pub t1: StoredTucker,
+    /// T2 (its core divided by `scale_t2`), when the bake has T2.
+    pub t2: Option<StoredTucker>,
 }
 
 /// The result of a per-vertex bake, ready to be written ([`write_vertex_file`]).

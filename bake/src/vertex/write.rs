@@ -10,6 +10,7 @@ use prt_formats::{BakeWriter, FormatError};
 
 use crate::pixel::{add_basis_tables, to_f16_scaled};
 
+use super::compress::StoredTucker;
 use super::error::VertexError;
 use super::VertexBake;
 
@@ -55,6 +56,15 @@ pub(crate) fn store(values: Vec<f32>, precision: Precision) -> (Stored, f32) {
             let (h, scale) = to_f16_scaled(&values);
             (Stored::F16(h), scale)
         }
+    }
+}
+
+/// Values whose magnitude is at most 1 (orthonormal factors) in their storage type, unscaled:
+/// f16 keeps its full relative precision there.
+pub(crate) fn store_unscaled(values: Vec<f32>, precision: Precision) -> Stored {
+    match precision {
+        Precision::F32 => Stored::F32(values),
+        Precision::F16 => Stored::F16(values.iter().map(|&v| f16::from_f32(v)).collect()),
     }
 }
 
@@ -125,6 +135,14 @@ fn writer(bake: &VertexBake) -> Result<BakeWriter<'_>, FormatError> {
             &[v, cube_len(VISIBILITY_CUBE)],
             &data.visibility,
         )?;
+        if let Some(comp) = &data.compressed {
+            w.add_u32(&names::clusters(g), &[v], &comp.clusters)?;
+            add_tucker(&mut w, g, names::T1, v, &comp.t1)?;
+            if let Some(t2) = &comp.t2 {
+                add_tucker(&mut w, g, names::T2, v, t2)?;
+            }
+            continue;
+        }
         add_stored(
             &mut w,
             &names::t1(g),
@@ -156,6 +174,35 @@ fn writer(bake: &VertexBake) -> Result<BakeWriter<'_>, FormatError> {
     // The metadata is plain numbers, strings and lists: it always serializes.
     w.set_metadata(serde_json::to_value(meta).unwrap_or(serde_json::Value::Null));
     Ok(w)
+}
+
+/// Adds the four tensors of a compressed T1 or T2 (`prt_formats::clustered`).
+fn add_tucker<'a>(
+    w: &mut BakeWriter<'a>,
+    g: usize,
+    tensor: &str,
+    vertices: usize,
+    t: &'a StoredTucker,
+) -> Result<(), FormatError> {
+    let name = |part| names::tucker(g, tensor, part);
+    w.add_u32(
+        &name(names::TUCKER_RANKS),
+        &[t.ranks.len() / 3, 3],
+        &t.ranks,
+    )?;
+    add_stored(
+        w,
+        &name(names::TUCKER_FACTORS),
+        &[t.factors.len()],
+        &t.factors,
+    )?;
+    add_stored(w, &name(names::TUCKER_CORE), &[t.core.len()], &t.core)?;
+    add_stored(
+        w,
+        &name(names::TUCKER_VERTEX),
+        &[vertices, t.vertex_rank],
+        &t.vertex,
+    )
 }
 
 /// Bytes of one stored T0 value, T1 or T2 value.

@@ -20,6 +20,9 @@ use prt_formats::vertex::{cube_len, names, VertexBakeMeta, T1_LIGHT_CUBE, T2_LIG
 use prt_formats::{BakeFile, Dtype};
 use rayon::prelude::*;
 
+use super::clustered::{
+    contract_light, expand_vertex, one_bounce_per_cluster, two_bounce_per_cluster, ClusterLight,
+};
 use super::constants::ShadingConstants;
 use super::open::Scene;
 use crate::error::RuntimeError;
@@ -46,6 +49,9 @@ pub(super) struct GroupLight {
     pub l1: Vec<f32>,
     /// `L2[v][j][i][ch]`, `[V_g][J][I][3]` (empty when reflections < 3).
     pub l2: Vec<f32>,
+    /// For a compressed group (then `l1` and `l2` are empty): T1 and T2 contracted per
+    /// cluster (`clustered.rs`).
+    pub clustered: Option<(ClusterLight, Option<ClusterLight>)>,
 }
 
 /// One group's material-stage results: per vertex a record `[E, I2, I1[16], U[rank]]`, RGB
@@ -307,6 +313,38 @@ pub(super) fn light_stage(
             }
             Ok::<_, RuntimeError>(o)
         };
+        if let Some(comp) = &layout.compressed {
+            let t1 = contract_light(
+                file,
+                g,
+                names::T1,
+                &comp.t1,
+                j * SH_COUNT,
+                channels,
+                c1,
+                gm.scale_t1,
+            )?;
+            let t2 = match &comp.t2 {
+                Some(l) => Some(contract_light(
+                    file,
+                    g,
+                    names::T2,
+                    l,
+                    j * n_i,
+                    channels,
+                    c2,
+                    gm.scale_t2,
+                )?),
+                None => None,
+            };
+            out.push(GroupLight {
+                t0dot,
+                l1: Vec::new(),
+                l2: Vec::new(),
+                clustered: Some((t1, t2)),
+            });
+            continue;
+        }
         let l1 = contract(
             names::t1(g),
             cube_len(T1_LIGHT_CUBE),
@@ -325,7 +363,12 @@ pub(super) fn light_stage(
         } else {
             Vec::new()
         };
-        out.push(GroupLight { t0dot, l1, l2 });
+        out.push(GroupLight {
+            t0dot,
+            l1,
+            l2,
+            clustered: None,
+        });
     }
     Ok(out)
 }
@@ -354,13 +397,39 @@ pub(super) fn material_stage(
         let rows = layout.rows;
         let nv = layout.vertices.len();
         let mut data = vec![0.0f32; nv * stride];
+        // A compressed group: the slot contraction per cluster first (`clustered.rs`).
+        let clustered = light.clustered.as_ref().map(|(t1, t2)| {
+            (
+                one_bounce_per_cluster(t1, &cj),
+                t2.as_ref().map(|t2| two_bounce_per_cluster(t2, &cj, &ci)),
+            )
+        });
+        let assign = layout.compressed.as_ref().map(|c| c.clusters.as_slice());
         data.par_chunks_mut(stride)
             .enumerate()
             .with_min_len(64)
             .for_each(|(v, rec)| {
-                // I1[s] = sum_j c_j L1[j][s].
-                let l1 = &light.l1[v * nj * SH_COUNT * 3..][..nj * SH_COUNT * 3];
                 let mut i1 = [[0.0f32; 3]; SH_COUNT];
+                let mut i2 = [0.0f32; 3];
+                if let (Some((m1, m2)), Some((t1, t2)), Some(assign)) =
+                    (&clustered, &light.clustered, assign)
+                {
+                    // I1[s] = sum_b u[v][b] M1[b][s], I2 = sum_b u2[v][b] M2[b].
+                    let k = assign[v] as usize;
+                    let mut flat = [0.0f32; SH_COUNT * 3];
+                    expand_vertex(t1, m1, SH_COUNT * 3, k, v, &mut flat);
+                    for (acc, x) in i1.iter_mut().zip(flat.chunks_exact(3)) {
+                        acc.copy_from_slice(x);
+                    }
+                    if let (Some(m2), Some(t2)) = (m2, t2) {
+                        expand_vertex(t2, m2, 3, k, v, &mut i2);
+                    }
+                }
+                // I1[s] = sum_j c_j L1[j][s] (dense; empty when compressed).
+                let l1 = light
+                    .l1
+                    .get(v * nj * SH_COUNT * 3..(v + 1) * nj * SH_COUNT * 3)
+                    .unwrap_or(&[]);
                 for (lj, c) in l1.chunks_exact(SH_COUNT * 3).zip(&cj) {
                     for (acc, x) in i1.iter_mut().zip(lj.chunks_exact(3)) {
                         acc[0] += c[0] * x[0];
@@ -369,7 +438,6 @@ pub(super) fn material_stage(
                     }
                 }
                 // I2 = sum_(j,i) c_j c_i L2[j][i].
-                let mut i2 = [0.0f32; 3];
                 if !light.l2.is_empty() {
                     let l2 = &light.l2[v * nj * n_i * 3..][..nj * n_i * 3];
                     for (lj, a) in l2.chunks_exact((n_i * 3).max(1)).zip(&cj) {

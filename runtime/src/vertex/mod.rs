@@ -24,6 +24,7 @@
 //! arriving on that side, so a pixel looking at the other side (or at a silhouette where the
 //! interpolated normal turns away from the eye) is black.
 
+mod clustered;
 mod constants;
 mod incident;
 mod open;

@@ -13,6 +13,7 @@ use prt_formats::vertex::{
 };
 use prt_formats::{BakeFile, Dtype};
 
+use super::clustered::{validate_group, CompressedLayout};
 use crate::error::RuntimeError;
 use crate::light::DIRECT_SIZE;
 
@@ -36,6 +37,8 @@ pub(super) struct GroupLayout {
     pub rows: usize,
     /// Active slots J.
     pub active: usize,
+    /// Where T1 and T2 lie when they are stored compressed.
+    pub compressed: Option<CompressedLayout>,
 }
 
 /// Everything of a validated bake besides the big group tensors (read at each stage from the
@@ -208,22 +211,52 @@ pub(super) fn validate(file: &BakeFile) -> Result<(VertexBakeMeta, Scene), Runti
             &[vg, cube_len(VISIBILITY_CUBE)],
         )?;
         let j = gm.active.len();
-        c.typed(
-            &names::t1(g),
-            dtype,
-            &[vg, cube_len(T1_LIGHT_CUBE), j, SH_TERMS, ch],
-        )?;
-        if meta.reflections >= 3 {
-            c.typed(
-                &names::t2(g),
-                dtype,
-                &[vg, cube_len(T2_LIGHT_CUBE), j, meta.t2_slots.len(), ch],
-            )?;
-        }
+        let compressed = match &gm.compression {
+            Some(comp) => {
+                let t1 = (
+                    cube_len(T1_LIGHT_CUBE),
+                    j * SH_TERMS * ch,
+                    comp.t1.vertex_rank,
+                );
+                let t2 = comp.t2.map(|t2| {
+                    (
+                        cube_len(T2_LIGHT_CUBE),
+                        j * meta.t2_slots.len() * ch,
+                        t2.vertex_rank,
+                    )
+                });
+                Some(validate_group(
+                    file,
+                    g,
+                    vg,
+                    comp.clusters,
+                    dtype,
+                    t1,
+                    t2,
+                    &schema,
+                )?)
+            }
+            None => {
+                c.typed(
+                    &names::t1(g),
+                    dtype,
+                    &[vg, cube_len(T1_LIGHT_CUBE), j, SH_TERMS, ch],
+                )?;
+                if meta.reflections >= 3 {
+                    c.typed(
+                        &names::t2(g),
+                        dtype,
+                        &[vg, cube_len(T2_LIGHT_CUBE), j, meta.t2_slots.len(), ch],
+                    )?;
+                }
+                None
+            }
+        };
         groups.push(GroupLayout {
             vertices,
             rows,
             active: j,
+            compressed,
         });
     }
     // Every triangle's vertices carry the data of its own material.

@@ -165,6 +165,45 @@ pub struct Bake {
     pub environment: Vec<f32>,
     /// Store T1 in this precision whatever the metadata says.
     pub t1_stored_as: Option<Precision>,
+    /// Store T1 and T2 compressed (`prt_formats::clustered`) with identity light and element
+    /// factors, the vertices of each group in two interleaved clusters (even and odd) with
+    /// one-hot vertex rows, and the dense values as cores: the same tensors exactly, through
+    /// the runtime's compressed path.
+    pub compress_as_identity: bool,
+}
+
+/// A dense `[V][bins][width]` tensor as an exact clustered Tucker product (see
+/// [`Bake::compress_as_identity`]): ranks `[K, 3]`, factors, cores, vertex rows `[V, B]`.
+fn identity_tucker(
+    t: &[f32],
+    clusters: &[u32],
+    k: usize,
+    bins: usize,
+    width: usize,
+) -> (Vec<u32>, Vec<f32>, Vec<f32>, Vec<f32>, usize) {
+    let members: Vec<Vec<usize>> = (0..k)
+        .map(|c| {
+            (0..clusters.len())
+                .filter(|&v| clusters[v] as usize == c)
+                .collect()
+        })
+        .collect();
+    let b_max = members.iter().map(|m| m.len()).max().unwrap_or(0);
+    let (mut ranks, mut factors, mut core) = (Vec::new(), Vec::new(), Vec::new());
+    let mut vertex = vec![0.0f32; clusters.len() * b_max];
+    for m in &members {
+        ranks.extend([bins as u32, width as u32, m.len() as u32]);
+        for n in [bins, width] {
+            for i in 0..n {
+                factors.extend((0..n).map(|j| if i == j { 1.0 } else { 0.0 }));
+            }
+        }
+        for (b, &v) in m.iter().enumerate() {
+            core.extend_from_slice(&t[v * bins * width..(v + 1) * bins * width]);
+            vertex[v * b_max + b] = 1.0;
+        }
+    }
+    (ranks, factors, core, vertex, b_max)
 }
 
 /// A material with a Kd slot (and a fixed lobe slot for a glossy family).
@@ -335,6 +374,7 @@ impl Bake {
                 scale_t0: 1.0,
                 scale_t1: 1.0,
                 scale_t2: 1.0,
+                compression: None,
             })
             .collect();
         let n_i = groups.first().map_or(0, |g| g.1.t2_shape[3]);
@@ -386,6 +426,7 @@ impl Bake {
                     yfov: 0.7,
                 },
                 stats: VertexBakeStats::default(),
+                compression: None,
             },
             mesh,
             groups: groups.into_iter().map(|(_, g, _)| g).collect(),
@@ -393,6 +434,7 @@ impl Bake {
             textures: Vec::new(),
             environment: Vec::new(),
             t1_stored_as: None,
+            compress_as_identity: false,
         }
     }
 
@@ -441,6 +483,39 @@ impl Bake {
         let tris: Vec<u32> = m.triangles.iter().flatten().copied().collect();
         let nv = m.positions.len();
         let nt = m.triangles.len();
+        // Compressed groups: the tensors and the metadata that describes them.
+        let mut meta = self.meta.clone();
+        let mut compressed = Vec::new();
+        if self.compress_as_identity {
+            for (gm, gd) in meta.groups.iter_mut().zip(&self.groups) {
+                let nv_g = gd.vertices.len();
+                let clusters: Vec<u32> = (0..nv_g).map(|v| (v % 2) as u32).collect();
+                let k = nv_g.min(2);
+                let mut tensors = Vec::new();
+                let mut shapes = vec![(&gd.t1, gd.t1_shape)];
+                if meta.reflections >= 3 {
+                    shapes.push((&gd.t2, gd.t2_shape));
+                }
+                for (t, shape) in shapes {
+                    let width = shape[2] * shape[3] * shape[4];
+                    tensors.push(identity_tucker(t, &clusters, k, shape[1], width));
+                }
+                let figures = |b: usize| prt_formats::clustered::TensorCompression {
+                    vertex_rank: b as u32,
+                    error: 0.0,
+                };
+                gm.compression = Some(prt_formats::clustered::GroupCompression {
+                    clusters: k as u32,
+                    t1: figures(tensors[0].4),
+                    t2: tensors.get(1).map(|t| figures(t.4)),
+                });
+                let halves = tensors
+                    .iter()
+                    .map(|t| [halves(&t.1), halves(&t.2), halves(&t.3)])
+                    .collect::<Vec<_>>();
+                compressed.push((clusters, tensors, halves));
+            }
+        }
         let mut w = BakeWriter::new();
         w.add_f32(names::POSITIONS, &[nv, 3], &positions)
             .expect("positions");
@@ -471,6 +546,40 @@ impl Bake {
                 &gd.visibility,
             )
             .expect("visibility");
+            if let Some((clusters, tensors, halves)) = compressed.get(g) {
+                w.add_u32(&names::clusters(g), &[clusters.len()], clusters)
+                    .expect("clusters");
+                for ((tensor, t), h) in [names::T1, names::T2].iter().zip(tensors).zip(halves) {
+                    let name = |part| names::tucker(g, tensor, part);
+                    w.add_u32(&name(names::TUCKER_RANKS), &[t.0.len() / 3, 3], &t.0)
+                        .expect("ranks");
+                    add_values(
+                        &mut w,
+                        precision,
+                        &name(names::TUCKER_FACTORS),
+                        &[t.1.len()],
+                        &t.1,
+                        &h[0],
+                    );
+                    add_values(
+                        &mut w,
+                        precision,
+                        &name(names::TUCKER_CORE),
+                        &[t.2.len()],
+                        &t.2,
+                        &h[1],
+                    );
+                    add_values(
+                        &mut w,
+                        precision,
+                        &name(names::TUCKER_VERTEX),
+                        &[clusters.len(), t.4],
+                        &t.3,
+                        &h[2],
+                    );
+                }
+                continue;
+            }
             let t1_16 = gd.t1_f16.as_deref().unwrap_or(&h[1]);
             add_values(
                 &mut w,
@@ -513,7 +622,7 @@ impl Bake {
             )
             .expect("environment");
         }
-        w.set_metadata(serde_json::to_value(&self.meta).expect("metadata"));
+        w.set_metadata(serde_json::to_value(&meta).expect("metadata"));
         w.write_atomic(path).expect("write synthetic vertex bake");
     }
 }

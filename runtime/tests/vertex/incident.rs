@@ -42,11 +42,16 @@ fn one_nonzero_bin_gives_i1_and_i2_exactly() {
     let (mw, mh) = (64, 32);
     let map = asymmetric_map(mw, mh);
     let rotation = 30.0f32;
-    for (precision, channels, reflections) in [
-        (Precision::F32, 1usize, 3u32),
-        (Precision::F16, 3, 3),
-        (Precision::F32, 3, 2),
-        (Precision::F16, 1, 2),
+    // Each case dense, then through the compressed path (identity factors: the same tensors).
+    for (precision, channels, reflections, compressed) in [
+        (Precision::F32, 1usize, 3u32, false),
+        (Precision::F16, 3, 3, false),
+        (Precision::F32, 3, 2, false),
+        (Precision::F16, 1, 2, false),
+        (Precision::F32, 1, 3, true),
+        (Precision::F16, 3, 3, true),
+        (Precision::F32, 3, 2, true),
+        (Precision::F16, 1, 2, true),
     ] {
         let mesh = Mesh::quad(UP, 0);
         let rows: Vec<_> = (0..4).map(|_| t0_rows(UP, None)).collect();
@@ -89,6 +94,7 @@ fn one_nonzero_bin_gives_i1_and_i2_exactly() {
             bake.meta.groups[0].scale_t0 = 1.0;
         }
         bake.set_latlong(mw, mh, map.clone(), rotation);
+        bake.compress_as_identity = compressed;
         let dir = tempfile::tempdir().expect("temp dir");
         let path = dir.path().join("v.prtbake");
         bake.write(&path);
@@ -119,7 +125,7 @@ fn one_nonzero_bin_gives_i1_and_i2_exactly() {
                 .vertex_incident(v)
                 .expect("stages")
                 .expect("vertex in a group");
-            let what = format!("{precision:?} x{channels} r{reflections} vertex {v}");
+            let what = format!("{precision:?} x{channels} r{reflections} c{compressed} vertex {v}");
             let ch_of = |ch: usize| if channels == 3 { ch } else { 0 };
             let mut e = [0.0f64; 3];
             for s in 0..SH_TERMS {

@@ -1,0 +1,273 @@
+//! The light and material stages of a group whose T1 and T2 are stored compressed
+//! (`prt_formats::clustered`; docs/vertex.md "Compression").
+//!
+//! With `T[v][l][w] = scale sum_(a,r,b) u[v][b] core_c[b][a][r] light_c[l][a] element_c[w][r]`
+//! the light contraction `sum_l C[l][ch] T[v][l][w]` never needs the dense tensor: per cluster,
+//! `P[a] = sum_l C[l] light_c[l][a]`, `Q[b][r] = sum_a P[a] core_c[b][a][r]` and
+//! `S[b][e] = scale sum_r Q[b][r] element_c[e][r]` (the **light stage**, per cluster, not per
+//! vertex); the material stage contracts `S` with the slot coefficients per cluster
+//! (`M[b][s] = sum_j c_j S[b][j, s]`) and only then goes to the vertices,
+//! `I1[v][s] = sum_b u[v][b] M[b][s]`: B multiply-adds per vertex and output instead of
+//! `384 J` (T1) or `24 J I` (T2).
+//!
+//! Every cluster and every vertex is computed on its own in a fixed order of operations, so the
+//! results do not depend on the number of threads.
+
+use prt_formats::clustered::TuckerLayout;
+use prt_formats::lighting::sh::SH_COUNT;
+use prt_formats::vertex::names;
+use prt_formats::{BakeFile, Dtype};
+use rayon::prelude::*;
+
+use crate::error::RuntimeError;
+
+/// Where a compressed group's tensors lie (validated at opening).
+#[derive(Clone, Debug)]
+pub(super) struct CompressedLayout {
+    /// The cluster of each vertex of the group.
+    pub clusters: Vec<u32>,
+    /// T1's layout.
+    pub t1: TuckerLayout,
+    /// T2's layout (reflections = 3).
+    pub t2: Option<TuckerLayout>,
+}
+
+/// One compressed tensor contracted with a light: per cluster `S[b][e][ch]`, and the vertex
+/// factor's rows.
+#[derive(Clone, Debug, Default)]
+pub(super) struct ClusterLight {
+    /// Number of clusters K.
+    pub clusters: usize,
+    /// The vertex rank B (the width of `vertex` and the rows of each cluster's `S`).
+    pub rank: usize,
+    /// Elements per channel E (`J x 16` for T1, `J x I` for T2).
+    pub elements: usize,
+    /// `[K][B][E][3]`; rows `b >= b_c` of a cluster are zero.
+    pub per_cluster: Vec<f32>,
+    /// `[V][B]`, as f32.
+    pub vertex: Vec<f32>,
+}
+
+/// Reads a stored tensor as f32 (f16 converted).
+fn read_f32(file: &BakeFile, name: &str) -> Result<Vec<f32>, RuntimeError> {
+    let t = file.tensor(name)?;
+    Ok(match t.dtype() {
+        Dtype::F16 => t.as_f16()?.iter().map(|h| h.to_f32()).collect(),
+        _ => t.as_f32()?.to_vec(),
+    })
+}
+
+/// The light stage of compressed tensor `tensor` ("t1" or "t2") of group `g`: `c` holds one
+/// RGB triple per light bin, `channels` is the tensor's (1 or 3), `elements` its elements per
+/// channel.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn contract_light(
+    file: &BakeFile,
+    g: usize,
+    tensor: &str,
+    layout: &TuckerLayout,
+    elements: usize,
+    channels: usize,
+    c: &[[f32; 3]],
+    scale: f32,
+) -> Result<ClusterLight, RuntimeError> {
+    let factors = read_f32(file, &names::tucker(g, tensor, names::TUCKER_FACTORS))?;
+    let core = read_f32(file, &names::tucker(g, tensor, names::TUCKER_CORE))?;
+    let vertex = read_f32(file, &names::tucker(g, tensor, names::TUCKER_VERTEX))?;
+    let bins = c.len();
+    let rank = layout.vertex_rank;
+    let stride = rank * elements * 3;
+    let mut per_cluster = vec![0.0f32; layout.clusters() * stride];
+    if stride > 0 {
+        per_cluster
+            .par_chunks_mut(stride)
+            .enumerate()
+            .for_each(|(k, out)| {
+                let [a, r, b] = layout.ranks[k];
+                let light = &factors[layout.factor_at[k]..][..bins * a];
+                let element = &factors[layout.factor_at[k] + bins * a..][..elements * channels * r];
+                let core = &core[layout.core_at[k]..][..b * a * r];
+                // P[a][ch].
+                let mut p = vec![[0.0f32; 3]; a];
+                for (cl, row) in c.iter().zip(light.chunks_exact(a.max(1))) {
+                    for (pa, &x) in p.iter_mut().zip(row) {
+                        for ch in 0..3 {
+                            pa[ch] += cl[ch] * x;
+                        }
+                    }
+                }
+                // Q[b][r][ch].
+                let mut q = vec![[0.0f32; 3]; b * r];
+                for (bb, qb) in q.chunks_exact_mut(r.max(1)).enumerate().take(b) {
+                    for (aa, pa) in p.iter().enumerate() {
+                        let row = &core[(bb * a + aa) * r..][..r];
+                        for (qk, &x) in qb.iter_mut().zip(row) {
+                            for ch in 0..3 {
+                                qk[ch] += pa[ch] * x;
+                            }
+                        }
+                    }
+                }
+                // S[b][e][ch] = scale sum_r Q[b][r][ch] element[(e, ch')][r].
+                for (bb, sb) in out.chunks_exact_mut(elements * 3).enumerate().take(b) {
+                    let qb = &q[bb * r..][..r];
+                    for (e, se) in sb.chunks_exact_mut(3).enumerate() {
+                        for (ch, s) in se.iter_mut().enumerate() {
+                            let w = if channels == 1 { e } else { e * 3 + ch };
+                            let row = &element[w * r..][..r];
+                            let mut acc = 0.0f32;
+                            for (qk, &x) in qb.iter().zip(row) {
+                                acc += qk[ch] * x;
+                            }
+                            *s = scale * acc;
+                        }
+                    }
+                }
+            });
+    }
+    Ok(ClusterLight {
+        clusters: layout.clusters(),
+        rank,
+        elements,
+        per_cluster,
+        vertex,
+    })
+}
+
+/// T1's material contraction per cluster: `M[k][b][s][ch] = sum_j c_j[ch] S[k][b][j, s][ch]`
+/// (`cj` one RGB triple per active slot).
+pub(super) fn one_bounce_per_cluster(light: &ClusterLight, cj: &[[f32; 3]]) -> Vec<f32> {
+    let mut m = vec![0.0f32; light.clusters * light.rank * SH_COUNT * 3];
+    m.par_chunks_mut(SH_COUNT * 3)
+        .zip(light.per_cluster.par_chunks(light.elements * 3))
+        .for_each(|(mb, sb)| {
+            for (sj, c) in sb.chunks_exact(SH_COUNT * 3).zip(cj) {
+                for (acc, x) in mb.chunks_exact_mut(3).zip(sj.chunks_exact(3)) {
+                    for ch in 0..3 {
+                        acc[ch] += c[ch] * x[ch];
+                    }
+                }
+            }
+        });
+    m
+}
+
+/// T2's material contraction per cluster: `M[k][b][ch] = sum_(j,i) c_j c_i S[k][b][j, i][ch]`.
+pub(super) fn two_bounce_per_cluster(
+    light: &ClusterLight,
+    cj: &[[f32; 3]],
+    ci: &[[f32; 3]],
+) -> Vec<f32> {
+    let n_i = ci.len();
+    let mut m = vec![0.0f32; light.clusters * light.rank * 3];
+    for (acc, sb) in m
+        .chunks_exact_mut(3)
+        .zip(light.per_cluster.chunks_exact((light.elements * 3).max(1)))
+    {
+        for (sj, a) in sb.chunks_exact((n_i * 3).max(1)).zip(cj) {
+            for (x, b) in sj.chunks_exact(3).zip(ci) {
+                for ch in 0..3 {
+                    acc[ch] += a[ch] * b[ch] * x[ch];
+                }
+            }
+        }
+    }
+    m
+}
+
+/// `sum_b u[v][b] M[cluster(v)][b][..]` for one vertex: `out` gets `width` values.
+#[inline]
+pub(super) fn expand_vertex(
+    light: &ClusterLight,
+    per_cluster: &[f32],
+    width: usize,
+    cluster: usize,
+    v: usize,
+    out: &mut [f32],
+) {
+    let b = light.rank;
+    let u = &light.vertex[v * b..][..b];
+    let m = &per_cluster[cluster * b * width..][..b * width];
+    out[..width].fill(0.0);
+    for (&ub, mb) in u.iter().zip(m.chunks_exact(width)) {
+        for (o, &x) in out.iter_mut().zip(mb) {
+            *o += ub * x;
+        }
+    }
+}
+
+/// Checks a compressed group's tensors against the metadata (types, shapes, ranks, cluster
+/// indices); returns its layout. `schema` makes the error.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn validate_group(
+    file: &BakeFile,
+    g: usize,
+    vertices: usize,
+    clusters: u32,
+    dtype: Dtype,
+    t1: (usize, usize, u32),
+    t2: Option<(usize, usize, u32)>,
+    schema: &dyn Fn(String) -> RuntimeError,
+) -> Result<CompressedLayout, RuntimeError> {
+    let name = names::clusters(g);
+    let t = file.tensor(&name)?;
+    if t.dtype() != Dtype::U32 || t.shape() != [vertices] {
+        return Err(schema(format!(
+            "{name}: {} {:?}, expected u32 [{vertices}]",
+            t.dtype(),
+            t.shape()
+        )));
+    }
+    let assign = t.as_u32()?.to_vec();
+    if let Some(v) = assign.iter().position(|&c| c >= clusters) {
+        return Err(schema(format!(
+            "{name}: vertex {v} is in cluster {}, but there are {clusters}",
+            assign[v]
+        )));
+    }
+    let tensor = |tensor: &str, (bins, width, rank): (usize, usize, u32)| {
+        let ranks_name = names::tucker(g, tensor, names::TUCKER_RANKS);
+        let t = file.tensor(&ranks_name)?;
+        if t.dtype() != Dtype::U32 || t.shape() != [clusters as usize, 3] {
+            return Err(schema(format!(
+                "{ranks_name}: {} {:?}, expected u32 [{clusters}, 3]",
+                t.dtype(),
+                t.shape()
+            )));
+        }
+        let layout = TuckerLayout::new(t.as_u32()?, bins, width)
+            .map_err(|e| schema(format!("{ranks_name}: {e}")))?;
+        if layout.vertex_rank != rank as usize {
+            return Err(schema(format!(
+                "{ranks_name}: largest vertex rank {}, but the metadata says {rank}",
+                layout.vertex_rank
+            )));
+        }
+        for (part, shape) in [
+            (names::TUCKER_FACTORS, vec![layout.factors_len]),
+            (names::TUCKER_CORE, vec![layout.core_len]),
+            (names::TUCKER_VERTEX, vec![vertices, layout.vertex_rank]),
+        ] {
+            let n = names::tucker(g, tensor, part);
+            let t = file.tensor(&n)?;
+            if t.dtype() != dtype || t.shape() != shape.as_slice() {
+                return Err(schema(format!(
+                    "{n}: {} {:?}, expected {dtype} {shape:?} from the metadata and ranks",
+                    t.dtype(),
+                    t.shape()
+                )));
+            }
+        }
+        Ok(layout)
+    };
+    let t1 = tensor(names::T1, t1)?;
+    let t2 = match t2 {
+        Some(s) => Some(tensor(names::T2, s)?),
+        None => None,
+    };
+    Ok(CompressedLayout {
+        clusters: assign,
+        t1,
+        t2,
+    })
+}
