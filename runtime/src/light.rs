@@ -15,7 +15,8 @@
 //! transfer against.
 
 use prt_formats::envmap::LatLongMap;
-use prt_formats::lighting::{prefilter, CubeMap, HaarCube, LightingError};
+use prt_formats::lighting::{prefilter, CubeMap, Face, HaarCube, LightingError};
+use rayon::prelude::*;
 
 /// Side of the cube map direct light (T0) is stored against.
 pub const DIRECT_SIZE: usize = 64;
@@ -89,10 +90,43 @@ impl LightCoefficients {
         while two_bounce.size() > TWO_BOUNCE_SIZE {
             two_bounce = two_bounce.downsample()?;
         }
+        // The prefilter dominates a light change: its faces run in parallel (each face is
+        // computed on its own, so the result does not depend on the thread count).
+        let filters = widths_deg
+            .iter()
+            .map(|&w| {
+                let sigma = w.to_radians();
+                if sigma == 0.0 {
+                    return Ok(None);
+                }
+                Ok(Some(prefilter::Prefilter::new(
+                    &cube,
+                    sigma,
+                    prefilter::output_size(sigma)?,
+                )?))
+            })
+            .collect::<Result<Vec<_>, LightingError>>()?;
+        let jobs: Vec<(usize, Face)> = filters
+            .iter()
+            .enumerate()
+            .filter(|(_, f)| f.is_some())
+            .flat_map(|(i, _)| Face::ALL.into_iter().map(move |face| (i, face)))
+            .collect();
+        let faces: Vec<Vec<[f32; 3]>> = jobs
+            .par_iter()
+            .map(|&(i, face)| filters[i].as_ref().map_or(Vec::new(), |f| f.face(face)))
+            .collect();
+        let mut faces = faces.into_iter();
         let mut prefiltered = Vec::with_capacity(widths_deg.len());
-        for &w in widths_deg {
+        for (&w, filter) in widths_deg.iter().zip(&filters) {
             let sigma = w.to_radians();
-            let filtered = prefilter::prefilter(&cube, sigma)?;
+            let filtered = match filter {
+                Some(f) => {
+                    let texels: Vec<[f32; 3]> = faces.by_ref().take(6).flatten().collect();
+                    CubeMap::new(f.size(), texels)?
+                }
+                None => cube.clone(),
+            };
             let k = prefilter::kernel_integral(sigma)?;
             // Normalized: a constant environment stays that constant at every width.
             let scale = if sigma == 0.0 { 1.0 } else { 1.0 / k };

@@ -215,19 +215,63 @@ pub fn prefilter_to_size(
             min,
         });
     }
-    let points = QuadraturePoints::new(cube, sigma)?;
-    let table = KernelTable::new(sigma);
+    let p = Prefilter::new(cube, sigma, size)?;
     let mut texels = Vec::with_capacity(6 * size * size);
     for face in Face::ALL {
+        texels.extend(p.face(face));
+    }
+    CubeMap::new(size, texels)
+}
+
+/// [`prefilter_to_size`] for widths > 0 one face at a time, so that a caller with threads can
+/// compute the faces in parallel: `CubeMap::new(size, faces in Face::ALL order, concatenated)`
+/// equals [`prefilter_to_size`]'s result bit for bit.
+pub struct Prefilter {
+    points: QuadraturePoints,
+    table: KernelTable,
+    size: usize,
+}
+
+impl Prefilter {
+    /// The quadrature of `cube` for width `sigma` (radians, at least [`min_width`] of the
+    /// cube's side) and an output side `size`.
+    pub fn new(cube: &CubeMap, sigma: f64, size: usize) -> Result<Prefilter, LightingError> {
+        check_sigma(sigma)?;
+        check_size(size)?;
+        let min = min_width(cube.size());
+        if sigma == 0.0 || sigma < min {
+            return Err(LightingError::WidthTooNarrow {
+                sigma,
+                size: cube.size(),
+                pitch: 2.0 / cube.size() as f64,
+                min,
+            });
+        }
+        Ok(Prefilter {
+            points: QuadraturePoints::new(cube, sigma)?,
+            table: KernelTable::new(sigma),
+            size,
+        })
+    }
+
+    /// The output side.
+    pub fn size(&self) -> usize {
+        self.size
+    }
+
+    /// The prefiltered texels of one face, row after row.
+    pub fn face(&self, face: Face) -> Vec<[f32; 3]> {
+        let size = self.size;
+        let mut texels = Vec::with_capacity(size * size);
         for j in 0..size {
             for i in 0..size {
                 let r = texel_centre_direction(size, face, i, j);
-                let e = points.convolve(&table, r);
+                let e = self.points.convolve(&self.table, r);
                 texels.push([e[0] as f32, e[1] as f32, e[2] as f32]);
             }
         }
+        texels
     }
-    CubeMap::new(size, texels)
 }
 
 /// The kernel as a function of `u = 1 - cos(angle)` on `[0, 1 - cos(cutoff)]`, tabulated.
