@@ -81,7 +81,7 @@ const TOLERANCE_T1: f64 = 1e-5;
 /// A diffuse floor (6 x 6 grid, editable), an editable GGX ball above it (42 vertices) and a
 /// fixed glossy GGX back wall, so that every group sees the others: T1 and T2 have blocks of
 /// a diffuse slot, PCA basis slots and a fixed material's slot.
-fn scene() -> Scene {
+pub(crate) fn scene() -> Scene {
     let mut b = SceneBuilder::new();
     let floor = b.material(
         "floor",
@@ -156,7 +156,7 @@ fn scene() -> Scene {
 
 /// A lat-long map that is neither constant nor symmetric: a gradient, a band and a bright,
 /// coloured spot, so that bins, faces and channels all differ.
-fn environment() -> (usize, usize, Vec<[f32; 3]>) {
+pub(crate) fn environment() -> (usize, usize, Vec<[f32; 3]>) {
     let (w, h) = (128usize, 64usize);
     let texels = (0..w * h)
         .map(|k| {
