@@ -29,7 +29,7 @@ pub struct VertexConfig {
     /// Relative L2 error allowed per cluster of vertices and tensor, in [0, 1) (default
     /// `crate::vertex::DEFAULT_COMPRESS_ERROR`): the ranks are the smallest meeting it.
     pub compress_error: Option<f32>,
-    /// Vertices per cluster aimed at (default 256).
+    /// Vertices per cluster aimed at (default 128).
     pub cluster_vertices: Option<u32>,
     /// Largest light rank per cluster, 1 ..= 384 (default 64).
     pub light_rank: Option<u32>,

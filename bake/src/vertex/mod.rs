@@ -138,7 +138,7 @@ impl VertexBakeOptions {
 /// Default relative L2 error per cluster of compressed T1 and T2 (`[vertex] compress_error`).
 pub const DEFAULT_COMPRESS_ERROR: f32 = 0.1;
 /// Default vertices per cluster (`[vertex] cluster_vertices`).
-pub const DEFAULT_CLUSTER_VERTICES: u32 = 256;
+pub const DEFAULT_CLUSTER_VERTICES: u32 = 128;
 /// Default largest light rank (`[vertex] light_rank`): the thesis' light dimension.
 pub const DEFAULT_LIGHT_RANK: u32 = 64;
 /// Default largest element rank (`[vertex] element_rank`).
