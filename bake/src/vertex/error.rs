@@ -74,6 +74,9 @@ pub enum VertexError {
     /// The assembled metadata fails the schema's own checks (a bug in the baker).
     #[error("the per-vertex bake's metadata is inconsistent: {0}")]
     Inconsistent(String),
+    /// The checkpoint could not be made, resumed or read.
+    #[error(transparent)]
+    Checkpoint(#[from] super::checkpoint::CheckpointError),
     /// The bake file could not be written.
     #[error("writing {path}: {source}")]
     Write {
