@@ -459,3 +459,87 @@ impl<R: Read> PieceReader<R> {
         Ok(out)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn block(seed: u32, vertices: usize) -> GroupBuffers {
+        let f = |i: usize| (seed as f32 + i as f32 * 0.37).sin() * 1e3;
+        GroupBuffers {
+            t0_index: (0..vertices * 3)
+                .map(|i| (i as u16) ^ seed as u16)
+                .collect(),
+            t0_value: (0..vertices * 3).map(f).collect(),
+            visibility: (0..vertices * cube_len(VISIBILITY_CUBE))
+                .map(|i| (i * 7 + seed as usize) as u8)
+                .collect(),
+            t1: (0..vertices * 50).map(|i| f(i + 1)).collect(),
+            t2: (0..vertices * 5).map(|i| f(i + 2)).collect(),
+            rays: 1000 + seed as u64,
+            t0_total: 1.0 / (3.0 + seed as f64),
+            t0_dropped: 1.0 / (7.0 + seed as f64),
+        }
+    }
+
+    /// A checkpoint in a fresh folder under the system's temp dir.
+    fn scratch(name: &str) -> (PathBuf, Checkpoint) {
+        let dir = std::env::temp_dir().join(format!(
+            "prt-checkpoint-{name}-{}.partial",
+            std::process::id()
+        ));
+        let _ = std::fs::remove_dir_all(&dir);
+        let c = Checkpoint::create(&dir, &test_fingerprint()).expect("create");
+        (dir, c)
+    }
+
+    fn test_fingerprint() -> Fingerprint {
+        serde_json::from_str(r#"{"entries": [["seed", "3"]]}"#).expect("fingerprint")
+    }
+
+    #[test]
+    fn pieces_load_as_saved_and_damage_is_refused_naming_the_file() {
+        let (dir, c) = scratch("pieces");
+        let vertices: Vec<u32> = (100..109).collect();
+        let blocks = vec![block(1, 4), block(2, 4), block(3, 1)];
+        c.save(2, 5, &vertices, &blocks).expect("save");
+        // Reopened, it knows the wave and gives back the very blocks, in order.
+        let c = Checkpoint::resume(&dir, &test_fingerprint()).expect("resume");
+        assert!(c.has(2, 5) && !c.has(2, 4) && c.saved_waves() == 1);
+        assert_eq!(c.load(2, 5, &vertices).expect("load"), blocks);
+
+        // Another wave's vertices: refused, saying what the piece holds.
+        let e = c.load(2, 5, &vertices[1..]).expect_err("other vertices");
+        assert!(e.to_string().contains("group2-wave5.bin"), "{e}");
+        assert!(
+            e.to_string()
+                .contains("expected group 2 wave 5 (vertices 101.."),
+            "{e}"
+        );
+
+        let piece = dir.join("group2-wave5.bin");
+        let good = std::fs::read(&piece).expect("piece");
+        // One flipped bit in a T1 value, and a piece cut short.
+        let mut flipped = good.clone();
+        flipped[good.len() / 2] ^= 0x10;
+        std::fs::write(&piece, &flipped).expect("write");
+        let e = c.load(2, 5, &vertices).expect_err("flipped bit");
+        assert!(e.to_string().contains("checksum"), "{e}");
+        std::fs::write(&piece, &good[..good.len() - 9]).expect("write");
+        let e = c.load(2, 5, &vertices).expect_err("cut short");
+        assert!(e.to_string().contains("cut short"), "{e}");
+
+        // Another bake's inputs, and a second checkpoint in the same place.
+        let other: Fingerprint =
+            serde_json::from_str(r#"{"entries": [["seed", "4"]]}"#).expect("fingerprint");
+        let e = Checkpoint::resume(&dir, &other).expect_err("other inputs");
+        assert!(
+            e.to_string().contains("seed (3 in the checkpoint, 4 now)"),
+            "{e}"
+        );
+        let e = Checkpoint::create(&dir, &test_fingerprint()).expect_err("exists");
+        assert!(matches!(e, CheckpointError::Exists(_)), "{e}");
+        c.remove().expect("remove");
+        assert!(!dir.exists());
+    }
+}
