@@ -25,6 +25,7 @@ use prt_formats::container::write_file_atomic;
 use prt_formats::vertex::{cube_len, VISIBILITY_CUBE};
 
 use super::buffers::GroupBuffers;
+use super::error::CheckpointError;
 use super::fingerprint::Fingerprint;
 
 /// The manifest's `format`: changes whenever the pieces' layout does.
@@ -37,52 +38,6 @@ pub fn checkpoint_folder(output: &Path) -> PathBuf {
     let mut name = output.as_os_str().to_os_string();
     name.push(".partial");
     PathBuf::from(name)
-}
-
-/// Why a checkpoint could not be made, resumed or read. Each message names the folder or file
-/// and says what to do.
-#[derive(Debug, thiserror::Error)]
-pub enum CheckpointError {
-    /// A bake without resume found the checkpoint of an earlier, interrupted one.
-    #[error(
-        "{} holds the checkpoint of an interrupted bake of this output: rerun with --resume to \
-         continue it, or delete the folder to bake from the start",
-        .0.display()
-    )]
-    Exists(PathBuf),
-    /// The checkpoint was made by a bake with other inputs.
-    #[error(
-        "cannot resume from {}: it was made with a different {}; resume with the same inputs, \
-         or delete the folder to bake from the start",
-        dir.display(),
-        changes.join(", ")
-    )]
-    Mismatch {
-        /// The checkpoint folder.
-        dir: PathBuf,
-        /// What changed, one phrase per input ([`Fingerprint::differences`]).
-        changes: Vec<String>,
-    },
-    /// A file of the checkpoint is not what this program writes.
-    #[error(
-        "{} is not a checkpoint piece this program can read ({message}): delete its folder to \
-         bake from the start",
-        path.display()
-    )]
-    Unreadable {
-        /// The file.
-        path: PathBuf,
-        /// What is wrong with it.
-        message: String,
-    },
-    /// Reading or writing the checkpoint failed.
-    #[error("checkpoint {}: {source}", path.display())]
-    Io {
-        /// The file or folder.
-        path: PathBuf,
-        /// The system's error.
-        source: io::Error,
-    },
 }
 
 #[derive(serde::Serialize, serde::Deserialize)]

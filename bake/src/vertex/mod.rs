@@ -53,9 +53,9 @@ use crate::progress::Progress;
 use crate::scene::Scene;
 
 pub use bake::{bake_vertex_checkpointed, bake_vertex_with, VertexTimings, WAVE_VERTICES};
-pub use checkpoint::{checkpoint_folder, Checkpoint, CheckpointError};
+pub use checkpoint::{checkpoint_folder, Checkpoint};
 pub use direct::T0_TEXELS;
-pub use error::VertexError;
+pub use error::{CheckpointError, VertexError};
 pub use fingerprint::Fingerprint;
 pub use memory::VertexMemoryEstimate;
 pub use plan::{check_scene, vertex_materials, PlannedGroup, VertexPlan};
