@@ -73,6 +73,10 @@ impl Checkpoint {
     /// Starts an empty checkpoint at `dir` for a bake with `fingerprint`; refuses an existing
     /// folder.
     pub fn create(dir: &Path, fingerprint: &Fingerprint) -> Result<Checkpoint, CheckpointError> {
+        // The output's folder may not exist yet (the bake file's writer creates it too).
+        if let Some(parent) = dir.parent().filter(|p| !p.as_os_str().is_empty()) {
+            std::fs::create_dir_all(parent).map_err(io_err(parent))?;
+        }
         // create_dir (not _all) fails on an existing folder: two bakes never share one.
         std::fs::create_dir(dir).map_err(|e| match e.kind() {
             io::ErrorKind::AlreadyExists => CheckpointError::Exists(dir.to_path_buf()),

@@ -78,7 +78,8 @@ fn edited(config: &Path, from: &str, to: &str, name: &str) -> PathBuf {
 fn a_killed_vertex_bake_resumes_to_the_same_bytes_and_refuses_other_inputs() {
     let dir = tempfile::tempdir().expect("temp dir");
     let config = diffuse_vitrine(dir.path());
-    let whole = dir.path().join("whole.prtbake");
+    // In a folder that does not exist yet: the bake makes it (and the checkpoint in it).
+    let whole = dir.path().join("new/whole.prtbake");
     let resumed = dir.path().join("resumed.prtbake");
     let checkpoint = dir.path().join("resumed.prtbake.partial");
 
@@ -93,7 +94,7 @@ fn a_killed_vertex_bake_resumes_to_the_same_bytes_and_refuses_other_inputs() {
         "want progress lines with an ETA on a non-terminal stderr: {log}"
     );
     assert!(
-        !dir.path().join("whole.prtbake.partial").exists(),
+        !dir.path().join("new/whole.prtbake.partial").exists(),
         "the checkpoint outlived a finished bake"
     );
     let want = std::fs::read(&whole).expect("uninterrupted bake");
