@@ -342,7 +342,8 @@ pub struct VertexRunSummary {
 
 /// Runs a per-vertex bake for a config: refusals, the pre-pass, the allocation report and
 /// memory estimate (as notes on `progress`, before the bases are built and the vertices
-/// traced), the bases, the bake, the file.
+/// traced), the checkpoint (`s.checkpoint`: refused or resumed before any tracing), the bases,
+/// the bake, the file, and the checkpoint's removal once the file is in place.
 pub fn run_vertex(
     config: &BakeConfig,
     scene: &Scene,
