@@ -10,6 +10,12 @@ pub trait Progress: Sync {
     fn start(&self, _stage: &str, _total: u64) {}
     /// `steps` more steps of the current stage are done.
     fn advance(&self, _steps: u64) {}
+    /// `steps` more steps of the current stage were done by an earlier run (restored from a
+    /// checkpoint): they count as done but took no time now, so a rate or ETA should leave
+    /// them out. Defaults to [`Progress::advance`].
+    fn restored(&self, steps: u64) {
+        self.advance(steps);
+    }
     /// The current stage is over.
     fn finish(&self) {}
     /// Something the user should know before the work goes on (the allocation report, the
@@ -39,6 +45,12 @@ impl<'a> Stage<'a> {
     pub(crate) fn advance(&self, steps: u64) {
         if let Some(p) = self.0 {
             p.advance(steps);
+        }
+    }
+
+    pub(crate) fn restored(&self, steps: u64) {
+        if let Some(p) = self.0 {
+            p.restored(steps);
         }
     }
 }

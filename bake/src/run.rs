@@ -20,7 +20,9 @@ use crate::pixel::{self, BakeTimings, PixelBakeOptions, Precision, SlotPlan};
 use crate::progress::Progress;
 use crate::scene::Scene;
 use crate::units::human_bytes;
-use crate::vertex::{self, VertexBakeOptions, VertexPlan, VertexTimings};
+use crate::vertex::{
+    self, Checkpoint, Fingerprint, VertexBakeOptions, VertexError, VertexPlan, VertexTimings,
+};
 
 /// Loads the config and its scene, with errors that name the file; the loader's warnings
 /// (skipped primitives, ignored glTF features) go to `progress`.
@@ -288,6 +290,20 @@ pub fn run_pixel(
     })
 }
 
+/// Whether a per-vertex run saves its traced waves as it goes, so that a killed run can be
+/// continued (`vertex::Checkpoint`, in `<output>.partial/`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum CheckpointMode {
+    /// No checkpoint is written or read.
+    #[default]
+    Off,
+    /// A new checkpoint; an existing one (an interrupted bake's) is refused, not reused.
+    Save,
+    /// Continue from the existing checkpoint when its inputs are this run's (refused, naming
+    /// what changed, when they are not); without one, bake from the start and save one.
+    Resume,
+}
+
 /// Command-line settings of a per-vertex bake on top of the config.
 #[derive(Clone, Debug, Default)]
 pub struct VertexRunSettings {
@@ -298,6 +314,8 @@ pub struct VertexRunSettings {
     pub precision: Option<Precision>,
     pub max_memory: Option<u64>,
     pub basis_count: Option<usize>,
+    /// Checkpoints (default: none).
+    pub checkpoint: CheckpointMode,
 }
 
 /// What a per-vertex bake did, for the CLI's summary and `--json`.
@@ -324,7 +342,8 @@ pub struct VertexRunSummary {
 
 /// Runs a per-vertex bake for a config: refusals, the pre-pass, the allocation report and
 /// memory estimate (as notes on `progress`, before the bases are built and the vertices
-/// traced), the bases, the bake, the file.
+/// traced), the checkpoint (`s.checkpoint`: refused or resumed before any tracing), the bases,
+/// the bake, the file, and the checkpoint's removal once the file is in place.
 pub fn run_vertex(
     config: &BakeConfig,
     scene: &Scene,
@@ -353,6 +372,11 @@ pub fn run_vertex(
     // Refuse what the mode cannot bake before any work.
     opts.validate()?;
     vertex::check_scene(scene)?;
+    let output = s.output.clone().unwrap_or_else(|| config.output.clone());
+    let checkpoint_dir = vertex::checkpoint_folder(&output);
+    if s.checkpoint == CheckpointMode::Save {
+        Checkpoint::ensure_absent(&checkpoint_dir).map_err(VertexError::from)?;
+    }
     let count = basis_count_setting(config, s.basis_count);
     let counts = basis_counts(scene, count, progress)?;
     let slots = SlotPlan::per_unit_radiance(scene, &counts)?;
@@ -379,6 +403,7 @@ pub fn run_vertex(
             });
         }
     }
+    let checkpoint = open_checkpoint(s.checkpoint, &checkpoint_dir, scene, &plan, &opts, progress)?;
     let basis_start = Instant::now();
     let bases = build_counted_bases(&plan.slots.basis_families, progress)?;
     let mut shading = Vec::new();
@@ -398,9 +423,27 @@ pub fn run_vertex(
         shading.push(b);
     }
     let basis_seconds = basis_start.elapsed().as_secs_f64();
-    let bake = vertex::bake_vertex_with(&integ, &plan, &bases, &shading, &opts, Some(progress))?;
-    let output = s.output.clone().unwrap_or_else(|| config.output.clone());
+    let bake = vertex::bake_vertex_checkpointed(
+        &integ,
+        &plan,
+        &bases,
+        &shading,
+        &opts,
+        checkpoint.as_ref(),
+        Some(progress),
+    )?;
     let file_bytes = vertex::write_vertex_file(&bake, &output)?;
+    // Only once the output is in place: a kill before this point resumes from the checkpoint.
+    if let Some(c) = checkpoint {
+        let dir = c.dir().to_path_buf();
+        if let Err(e) = c.remove() {
+            progress.warn(&format!(
+                "the bake is written, but its checkpoint {} could not be removed ({e}); \
+                 delete it",
+                dir.display()
+            ));
+        }
+    }
     Ok(VertexRunSummary {
         output,
         file_bytes,
@@ -415,6 +458,46 @@ pub fn run_vertex(
         timings: bake.timings,
         stats: bake.meta.stats.clone(),
     })
+}
+
+/// The run's checkpoint in `dir`, per `mode`: none, a new one, or the existing one when its
+/// inputs are this bake's (a resume without a checkpoint starts a new one, saying so).
+fn open_checkpoint(
+    mode: CheckpointMode,
+    dir: &Path,
+    scene: &Scene,
+    plan: &VertexPlan,
+    opts: &VertexBakeOptions,
+    progress: &dyn Progress,
+) -> Result<Option<Checkpoint>, VertexError> {
+    if mode == CheckpointMode::Off {
+        return Ok(None);
+    }
+    let fingerprint = Fingerprint::new(scene, plan, opts);
+    if mode == CheckpointMode::Resume && dir.exists() {
+        let c = Checkpoint::resume(dir, &fingerprint)?;
+        let mut restored = 0;
+        for (gi, g) in plan.groups.iter().enumerate() {
+            for (wi, wave) in g.vertices.chunks(vertex::WAVE_VERTICES).enumerate() {
+                if c.has(gi, wi) {
+                    restored += wave.len();
+                }
+            }
+        }
+        progress.note(&format!(
+            "resuming from {}: {restored} of {} vertices already traced",
+            dir.display(),
+            plan.grouped_vertices()
+        ));
+        return Ok(Some(c));
+    }
+    if mode == CheckpointMode::Resume {
+        progress.note(&format!(
+            "no checkpoint at {}: baking from the start",
+            dir.display()
+        ));
+    }
+    Ok(Some(Checkpoint::create(dir, &fingerprint)?))
 }
 
 /// Applies a `--set MATERIAL.PARAM=VALUE` edit to the scene's true BRDFs (for the reference

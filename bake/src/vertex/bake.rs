@@ -19,6 +19,8 @@ use crate::progress::{Progress, Stage};
 use crate::scene::{Environment, Scene};
 
 use super::compress::{compress_group, GroupShape};
+use super::buffers::GroupBuffers;
+use super::checkpoint::Checkpoint;
 use super::error::VertexError;
 use super::plan::{persisted, VertexPlan, BLOCK_VERTICES};
 use super::trace::VertexTracer;
@@ -26,8 +28,9 @@ use super::write::{store, Stored};
 use super::{MeshData, VertexBake, VertexBakeOptions, VertexGroupData};
 
 /// Vertices whose results are gathered before being appended to their group's buffers: bounds
-/// the memory of finished blocks while keeping both threads busy.
-pub(crate) const WAVE_VERTICES: usize = 512;
+/// the memory of finished blocks while keeping both threads busy. Also the checkpoint's
+/// granularity: a killed bake loses at most the wave it was tracing.
+pub const WAVE_VERTICES: usize = 512;
 
 /// Wall-clock figures of a per-vertex bake (not stored in the file).
 #[derive(Clone, Copy, Debug, Default, serde::Serialize)]
@@ -36,37 +39,11 @@ pub struct VertexTimings {
     pub trace_seconds: f64,
     /// The whole bake call.
     pub bake_seconds: f64,
-    /// Vertices traced per second of tracing.
+    /// Vertices traced per second of tracing (those restored from a checkpoint left out).
     pub vertices_per_second: f64,
-    /// Rays of the trace (not the pre-pass) per second of tracing.
+    /// Rays of the trace (not the pre-pass, nor those of restored vertices) per second of
+    /// tracing.
     pub rays_per_second: f64,
-}
-
-/// One group's results in f32, in vertex order.
-#[derive(Default)]
-struct GroupBuffers {
-    t0_index: Vec<u16>,
-    t0_value: Vec<f32>,
-    visibility: Vec<u8>,
-    t1: Vec<f32>,
-    t2: Vec<f32>,
-    rays: u64,
-    /// Sums of squares of the T0 coefficients, all and dropped (for the truncation error).
-    t0_total: f64,
-    t0_dropped: f64,
-}
-
-impl GroupBuffers {
-    fn append(&mut self, other: GroupBuffers) {
-        self.t0_index.extend(other.t0_index);
-        self.t0_value.extend(other.t0_value);
-        self.visibility.extend(other.visibility);
-        self.t1.extend(other.t1);
-        self.t2.extend(other.t2);
-        self.rays += other.rays;
-        self.t0_total += other.t0_total;
-        self.t0_dropped += other.t0_dropped;
-    }
 }
 
 /// Traces the vertices of `vertices` in order into buffers.
@@ -98,6 +75,21 @@ pub fn bake_vertex_with(
     opts: &VertexBakeOptions,
     progress: Option<&dyn Progress>,
 ) -> Result<VertexBake, VertexError> {
+    bake_vertex_checkpointed(integ, plan, bases, shading, opts, None, progress)
+}
+
+/// [`bake_vertex_with`], saving each traced wave to `checkpoint` and taking the waves it
+/// already holds from it instead of tracing them (the result is the same bytes). The
+/// checkpoint must have been opened with this bake's [`Fingerprint`](super::Fingerprint).
+pub fn bake_vertex_checkpointed(
+    integ: &Integrator,
+    plan: &VertexPlan,
+    bases: &[BrdfBasis],
+    shading: &[ShadingBasis],
+    opts: &VertexBakeOptions,
+    checkpoint: Option<&Checkpoint>,
+    progress: Option<&dyn Progress>,
+) -> Result<VertexBake, VertexError> {
     let start = Instant::now();
     opts.validate()?;
     let scene = integ.scene;
@@ -115,17 +107,34 @@ pub fn bake_vertex_with(
     let mut truncation = Vec::with_capacity(plan.groups.len());
     let mut rays = plan.prepass_rays;
     let mut trace_rays = 0u64;
+    // Waves taken from the checkpoint: left out of the timings' rates.
+    let (mut restored_vertices, mut restored_rays) = (0usize, 0u64);
     for (gi, g) in plan.groups.iter().enumerate() {
         let mut buf = GroupBuffers::default();
-        for wave in g.vertices.chunks(WAVE_VERTICES) {
-            let blocks: Vec<GroupBuffers> = wave
-                .par_chunks(BLOCK_VERTICES)
-                .map(|block| {
-                    let b = trace_block(&tracer, block);
-                    stage.advance(block.len() as u64);
-                    b
-                })
-                .collect::<Result<_, _>>()?;
+        for (wi, wave) in g.vertices.chunks(WAVE_VERTICES).enumerate() {
+            let blocks: Vec<GroupBuffers> = match checkpoint {
+                Some(c) if c.has(gi, wi) => {
+                    let blocks = c.load(gi, wi, wave)?;
+                    stage.restored(wave.len() as u64);
+                    restored_vertices += wave.len();
+                    restored_rays += blocks.iter().map(|b| b.rays).sum::<u64>();
+                    blocks
+                }
+                _ => {
+                    let blocks: Vec<GroupBuffers> = wave
+                        .par_chunks(BLOCK_VERTICES)
+                        .map(|block| {
+                            let b = trace_block(&tracer, block);
+                            stage.advance(block.len() as u64);
+                            b
+                        })
+                        .collect::<Result<_, _>>()?;
+                    if let Some(c) = checkpoint {
+                        c.save(gi, wi, wave, &blocks)?;
+                    }
+                    blocks
+                }
+            };
             for b in blocks {
                 buf.append(b);
             }
@@ -255,14 +264,15 @@ pub fn bake_vertex_with(
         compression: opts.compression,
     };
     meta.validate().map_err(VertexError::Inconsistent)?;
-    let vertices = plan.grouped_vertices() as f64;
+    let traced_vertices = (plan.grouped_vertices() - restored_vertices) as f64;
+    let traced_rays = (trace_rays - restored_rays) as f64;
     Ok(VertexBake {
         meta,
         timings: VertexTimings {
             trace_seconds,
             bake_seconds: start.elapsed().as_secs_f64(),
-            vertices_per_second: vertices / trace_seconds.max(1e-9),
-            rays_per_second: trace_rays as f64 / trace_seconds.max(1e-9),
+            vertices_per_second: traced_vertices / trace_seconds.max(1e-9),
+            rays_per_second: traced_rays / trace_seconds.max(1e-9),
         },
         groups,
         shading: used_shading.into_iter().cloned().collect(),

@@ -15,7 +15,10 @@
 //!   visibility and Haar truncation;
 //! - [`bake_vertex_with`] (`bake.rs`): every group in fixed blocks of vertices (rayon), storage
 //!   precision and per-group scales, the metadata;
-//! - [`write_vertex_file`] (`write.rs`): the file, written atomically.
+//! - [`write_vertex_file`] (`write.rs`): the file, written atomically;
+//! - [`Checkpoint`] (`checkpoint.rs`): the traced waves saved beside the output as the bake
+//!   goes, so that a killed bake resumes; [`Fingerprint`] (`fingerprint.rs`) what they belong
+//!   to.
 //!
 //! `spp` means N1 in this mode: the directions traced from each vertex for T1 and T2.
 //! The result does not depend on the thread count: every vertex's sums run sequentially from
@@ -26,8 +29,11 @@ mod bake;
 mod bins;
 mod cluster;
 mod compress;
+mod buffers;
+mod checkpoint;
 mod direct;
 mod error;
+mod fingerprint;
 mod frame;
 mod memory;
 mod plan;
@@ -49,10 +55,12 @@ use crate::pixel::SlotPlan;
 use crate::progress::Progress;
 use crate::scene::Scene;
 
-pub use bake::{bake_vertex_with, VertexTimings};
 pub use compress::StoredTucker;
+pub use bake::{bake_vertex_checkpointed, bake_vertex_with, VertexTimings, WAVE_VERTICES};
+pub use checkpoint::{checkpoint_folder, Checkpoint};
 pub use direct::T0_TEXELS;
-pub use error::VertexError;
+pub use error::{CheckpointError, VertexError};
+pub use fingerprint::Fingerprint;
 pub use memory::VertexMemoryEstimate;
 pub use plan::{check_scene, vertex_materials, PlannedGroup, VertexPlan};
 #[doc(hidden)]

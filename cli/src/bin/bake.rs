@@ -5,7 +5,8 @@
 //!     bake model.glb [--print-config]          bake a glTF with defaults (or print them)
 //!
 //! The config's `mode` picks the baker: per pixel (`run_pixel`) or per vertex (`run_vertex`;
-//! `--spp` is then N1, the directions traced from each vertex).
+//! `--spp` is then N1, the directions traced from each vertex). A per-vertex bake saves its
+//! traced vertices in `<output>.partial/` as it goes; `--resume` continues a killed one.
 //!
 //! Measurements and reports are the `bench` binary's (crate `prt-bench`).
 
@@ -17,7 +18,9 @@ use clap::{Args, Parser, ValueEnum};
 use prt_bake::config::{BakeConfig, Mode};
 use prt_bake::pixel::Precision;
 use prt_bake::progress::Progress;
-use prt_bake::run::{load_scene, run_pixel, run_vertex, PixelRunSettings, VertexRunSettings};
+use prt_bake::run::{
+    load_scene, run_pixel, run_vertex, CheckpointMode, PixelRunSettings, VertexRunSettings,
+};
 use prt_bake::scene::Scene;
 use prt_bake::units::human_bytes;
 use prt_cli::{parse_size, Stderr};
@@ -75,6 +78,15 @@ struct BakeArgs {
     /// error_target, else 6 for blinn-phong and 8 for ggx).
     #[arg(long)]
     basis_count: Option<usize>,
+    /// Continue a killed per-vertex bake from its checkpoint (`<output>.partial/`); the file is
+    /// the same bytes as an uninterrupted bake's. Refused, naming what changed, when the
+    /// config, scene, flags or program differ from the interrupted bake's.
+    #[arg(long, conflicts_with = "no_checkpoint")]
+    resume: bool,
+    /// Do not save a per-vertex bake's traced vertices as it goes (saves the checkpoint's disk
+    /// space, about the f32 size of the transfer tensors; a killed bake then starts over).
+    #[arg(long)]
+    no_checkpoint: bool,
     /// No progress or allocation report on stderr.
     #[arg(long)]
     quiet: bool,
@@ -131,6 +143,15 @@ fn bake_pixel(
     precision: Option<Precision>,
     progress: &Stderr,
 ) -> Result<()> {
+    for (given, flag) in [(a.resume, "--resume"), (a.no_checkpoint, "--no-checkpoint")] {
+        if given {
+            bail!(
+                "{flag} applies to per-vertex bakes (a per-pixel bake keeps no checkpoint); {} \
+                 has mode = \"pixel\"",
+                config.config_path.display()
+            );
+        }
+    }
     let settings = PixelRunSettings {
         spp: a.spp,
         width: a.width,
@@ -176,12 +197,20 @@ fn bake_vertex(
             );
         }
     }
+    let checkpoint = if a.resume {
+        CheckpointMode::Resume
+    } else if a.no_checkpoint {
+        CheckpointMode::Off
+    } else {
+        CheckpointMode::Save
+    };
     let settings = VertexRunSettings {
         spp: a.spp,
         output: a.out.clone(),
         precision,
         max_memory: a.max_memory,
         basis_count: a.basis_count,
+        checkpoint,
     };
     let summary = run_vertex(config, scene, &settings, progress)?;
     if a.json {

@@ -15,7 +15,7 @@ const RELIGHT: &str = env!("CARGO_BIN_EXE_relight");
 
 /// A vertex config for vitrine with every material diffuse (no shading basis to build, so the
 /// bake takes seconds), written next to the scene's own files in `dir`.
-fn diffuse_vitrine(dir: &Path) -> PathBuf {
+pub(crate) fn diffuse_vitrine(dir: &Path) -> PathBuf {
     let scene = scenes().join("vitrine/vitrine.gltf");
     let map = scenes().join("envmaps/sky.exr");
     let config = dir.join("vitrine-diffuse.toml");
