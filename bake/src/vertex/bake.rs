@@ -18,9 +18,9 @@ use crate::integrator::Integrator;
 use crate::progress::{Progress, Stage};
 use crate::scene::{Environment, Scene};
 
-use super::compress::{compress_group, GroupShape};
 use super::buffers::GroupBuffers;
 use super::checkpoint::Checkpoint;
+use super::compress::{compress_group, GroupShape};
 use super::error::VertexError;
 use super::plan::{persisted, VertexPlan, BLOCK_VERTICES};
 use super::trace::VertexTracer;
@@ -206,7 +206,13 @@ pub fn bake_vertex_checkpointed(
             vertices: g.vertices.clone(),
             t0_index: buf.t0_index,
             t0_value,
-            visibility: buf.visibility,
+            // Only the specular lobes read the visibility (docs/vertex.md, section 3): a group
+            // without one stores none.
+            visibility: if g.lobe.is_some() {
+                buf.visibility
+            } else {
+                Vec::new()
+            },
             t1,
             t2,
             compressed,

@@ -27,10 +27,10 @@
 
 mod bake;
 mod bins;
-mod cluster;
-mod compress;
 mod buffers;
 mod checkpoint;
+mod cluster;
+mod compress;
 mod direct;
 mod error;
 mod fingerprint;
@@ -55,9 +55,9 @@ use crate::pixel::SlotPlan;
 use crate::progress::Progress;
 use crate::scene::Scene;
 
-pub use compress::StoredTucker;
 pub use bake::{bake_vertex_checkpointed, bake_vertex_with, VertexTimings, WAVE_VERTICES};
 pub use checkpoint::{checkpoint_folder, Checkpoint};
+pub use compress::StoredTucker;
 pub use direct::T0_TEXELS;
 pub use error::{CheckpointError, VertexError};
 pub use fingerprint::Fingerprint;
@@ -199,7 +199,8 @@ pub struct VertexGroupData {
     pub t0_index: Vec<u16>,
     /// `[vertices, t0_rows, t0_terms]` Haar values (divided by the group's `scale_t0`).
     pub t0_value: Stored,
-    /// `[vertices, 6 * 16 * 16]` visible fractions, 255 = all.
+    /// `[vertices, 6 * 16 * 16]` visible fractions, 255 = all, for a group with a specular
+    /// lobe; empty (`[vertices, 0]`) for one without.
     pub visibility: Vec<u8>,
     /// `[vertices, 384, J, 16, channels]` (divided by `scale_t1`).
     pub t1: Stored,

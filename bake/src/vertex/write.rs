@@ -4,7 +4,7 @@
 use half::f16;
 use prt_formats::pixel::Precision;
 use prt_formats::vertex::{
-    cube_len, names, shading_tables, SH_TERMS, T1_LIGHT_CUBE, T2_LIGHT_CUBE, VISIBILITY_CUBE,
+    cube_len, names, shading_tables, SH_TERMS, T1_LIGHT_CUBE, T2_LIGHT_CUBE,
 };
 use prt_formats::{BakeWriter, FormatError};
 
@@ -132,7 +132,7 @@ fn writer(bake: &VertexBake) -> Result<BakeWriter<'_>, FormatError> {
         )?;
         w.add_u8(
             &names::visibility(g),
-            &[v, cube_len(VISIBILITY_CUBE)],
+            &[v, if v == 0 { 0 } else { data.visibility.len() / v }],
             &data.visibility,
         )?;
         if let Some(comp) = &data.compressed {

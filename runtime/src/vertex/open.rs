@@ -205,11 +205,15 @@ pub(super) fn validate(file: &BakeFile) -> Result<(VertexBakeMeta, Scene), Runti
             )));
         }
         c.typed(&names::t0_value(g), dtype, &[vg, rows, terms])?;
-        c.typed(
-            &names::visibility(g),
-            Dtype::U8,
-            &[vg, cube_len(VISIBILITY_CUBE)],
-        )?;
+        // Only a group with a specular lobe needs its visibility; one without stores none
+        // (schema 2) or a full one (schema 1).
+        let vis = names::visibility(g);
+        let full = [vg, cube_len(VISIBILITY_CUBE)];
+        if gm.shading.is_some() || file.tensor(&vis)?.shape() != [vg, 0] {
+            c.typed(&vis, Dtype::U8, &full)?;
+        } else {
+            c.typed(&vis, Dtype::U8, &[vg, 0])?;
+        }
         let j = gm.active.len();
         let compressed = match &gm.compression {
             Some(comp) => {

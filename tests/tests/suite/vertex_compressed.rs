@@ -132,7 +132,10 @@ fn the_error_target_bounds_the_reported_error_and_the_image_follows() {
     let reference = image(&mut dense);
     let mut last = 0.0;
     for target in [0.02f32, 0.2, 0.5] {
-        let mut r = relit(&format!("compressed-{target}.prt"), Some(settings(target, 100_000)));
+        let mut r = relit(
+            &format!("compressed-{target}.prt"),
+            Some(settings(target, 100_000)),
+        );
         for (gi, g) in r.meta().groups.iter().enumerate() {
             let c = g.compression.as_ref().expect("compressed group");
             for (what, t) in [("T1", Some(c.t1)), ("T2", c.t2)] {
@@ -148,7 +151,10 @@ fn the_error_target_bounds_the_reported_error_and_the_image_follows() {
         println!("target {target}: image rel. L2 against dense {e:.5}");
         // The image error never exceeds the tensors' and grows as the target loosens.
         assert!(e <= f64::from(target), "target {target}: image error {e}");
-        assert!(e >= last, "target {target}: {e} below the tighter target's {last}");
+        assert!(
+            e >= last,
+            "target {target}: {e} below the tighter target's {last}"
+        );
         last = e;
     }
     assert!(last > 1e-3, "a 50 % target changed nothing ({last})");

@@ -172,7 +172,8 @@ fn the_file_holds_the_schema() {
     for (g, gm) in meta.groups.iter().enumerate() {
         let v = gm.vertices as usize;
         assert_eq!(shape(&names::t0_index(g)), vec![v, 1, 40]);
-        assert_eq!(shape(&names::visibility(g)), vec![v, 1536]);
+        // Diffuse groups (no lobe) store no visibility.
+        assert_eq!(shape(&names::visibility(g)), vec![v, 0]);
         assert_eq!(shape(&names::t1(g)), vec![v, 384, 1, 16, 1]);
         assert_eq!(shape(&names::t2(g)), vec![v, 24, 1, 2, 1]);
         // f16 with the group's scale: the largest stored magnitude is 2^14.
