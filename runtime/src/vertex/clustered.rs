@@ -21,15 +21,26 @@ use rayon::prelude::*;
 
 use crate::error::RuntimeError;
 
-/// Where a compressed group's tensors lie (validated at opening).
+/// A compressed group's tensors, validated and converted to f32 at opening (they are small:
+/// converting them at every light change cost more than the contraction).
 #[derive(Clone, Debug)]
 pub(super) struct CompressedLayout {
     /// The cluster of each vertex of the group.
     pub clusters: Vec<u32>,
-    /// T1's layout.
-    pub t1: TuckerLayout,
-    /// T2's layout (reflections = 3).
-    pub t2: Option<TuckerLayout>,
+    /// T1.
+    pub t1: CompressedTensor,
+    /// T2 (reflections = 3).
+    pub t2: Option<CompressedTensor>,
+}
+
+/// One compressed tensor: its layout and values.
+#[derive(Clone, Debug)]
+pub(super) struct CompressedTensor {
+    pub layout: TuckerLayout,
+    pub factors: Vec<f32>,
+    pub core: Vec<f32>,
+    /// `[V][B]`.
+    pub vertex: Vec<f32>,
 }
 
 /// One compressed tensor contracted with a light: per cluster `S[b][e][ch]`, and the vertex
@@ -44,8 +55,6 @@ pub(super) struct ClusterLight {
     pub elements: usize,
     /// `[K][B][E][3]`; rows `b >= b_c` of a cluster are zero.
     pub per_cluster: Vec<f32>,
-    /// `[V][B]`, as f32.
-    pub vertex: Vec<f32>,
 }
 
 /// Reads a stored tensor as f32 (f16 converted).
@@ -60,20 +69,14 @@ fn read_f32(file: &BakeFile, name: &str) -> Result<Vec<f32>, RuntimeError> {
 /// The light stage of compressed tensor `tensor` ("t1" or "t2") of group `g`: `c` holds one
 /// RGB triple per light bin, `channels` is the tensor's (1 or 3), `elements` its elements per
 /// channel.
-#[allow(clippy::too_many_arguments)]
 pub(super) fn contract_light(
-    file: &BakeFile,
-    g: usize,
-    tensor: &str,
-    layout: &TuckerLayout,
+    t: &CompressedTensor,
     elements: usize,
     channels: usize,
     c: &[[f32; 3]],
     scale: f32,
-) -> Result<ClusterLight, RuntimeError> {
-    let factors = read_f32(file, &names::tucker(g, tensor, names::TUCKER_FACTORS))?;
-    let core = read_f32(file, &names::tucker(g, tensor, names::TUCKER_CORE))?;
-    let vertex = read_f32(file, &names::tucker(g, tensor, names::TUCKER_VERTEX))?;
+) -> ClusterLight {
+    let (layout, factors, core) = (&t.layout, &t.factors, &t.core);
     let bins = c.len();
     let rank = layout.vertex_rank;
     let stride = rank * elements * 3;
@@ -125,13 +128,12 @@ pub(super) fn contract_light(
                 }
             });
     }
-    Ok(ClusterLight {
+    ClusterLight {
         clusters: layout.clusters(),
         rank,
         elements,
         per_cluster,
-        vertex,
-    })
+    }
 }
 
 /// T1's material contraction per cluster: `M[k][b][s][ch] = sum_j c_j[ch] S[k][b][j, s][ch]`
@@ -178,15 +180,15 @@ pub(super) fn two_bounce_per_cluster(
 /// `sum_b u[v][b] M[cluster(v)][b][..]` for one vertex: `out` gets `width` values.
 #[inline]
 pub(super) fn expand_vertex(
-    light: &ClusterLight,
+    tensor: &CompressedTensor,
     per_cluster: &[f32],
     width: usize,
     cluster: usize,
     v: usize,
     out: &mut [f32],
 ) {
-    let b = light.rank;
-    let u = &light.vertex[v * b..][..b];
+    let b = tensor.layout.vertex_rank;
+    let u = &tensor.vertex[v * b..][..b];
     let m = &per_cluster[cluster * b * width..][..b * width];
     out[..width].fill(0.0);
     for (&ub, mb) in u.iter().zip(m.chunks_exact(width)) {
@@ -258,7 +260,13 @@ pub(super) fn validate_group(
                 )));
             }
         }
-        Ok(layout)
+        let read = |part| read_f32(file, &names::tucker(g, tensor, part));
+        Ok(CompressedTensor {
+            factors: read(names::TUCKER_FACTORS)?,
+            core: read(names::TUCKER_CORE)?,
+            vertex: read(names::TUCKER_VERTEX)?,
+            layout,
+        })
     };
     let t1 = tensor(names::T1, t1)?;
     let t2 = match t2 {

@@ -314,29 +314,11 @@ pub(super) fn light_stage(
             Ok::<_, RuntimeError>(o)
         };
         if let Some(comp) = &layout.compressed {
-            let t1 = contract_light(
-                file,
-                g,
-                names::T1,
-                &comp.t1,
-                j * SH_COUNT,
-                channels,
-                c1,
-                gm.scale_t1,
-            )?;
-            let t2 = match &comp.t2 {
-                Some(l) => Some(contract_light(
-                    file,
-                    g,
-                    names::T2,
-                    l,
-                    j * n_i,
-                    channels,
-                    c2,
-                    gm.scale_t2,
-                )?),
-                None => None,
-            };
+            let t1 = contract_light(&comp.t1, j * SH_COUNT, channels, c1, gm.scale_t1);
+            let t2 = comp
+                .t2
+                .as_ref()
+                .map(|t| contract_light(t, j * n_i, channels, c2, gm.scale_t2));
             out.push(GroupLight {
                 t0dot,
                 l1: Vec::new(),
@@ -404,24 +386,21 @@ pub(super) fn material_stage(
                 t2.as_ref().map(|t2| two_bounce_per_cluster(t2, &cj, &ci)),
             )
         });
-        let assign = layout.compressed.as_ref().map(|c| c.clusters.as_slice());
         data.par_chunks_mut(stride)
             .enumerate()
             .with_min_len(64)
             .for_each(|(v, rec)| {
                 let mut i1 = [[0.0f32; 3]; SH_COUNT];
                 let mut i2 = [0.0f32; 3];
-                if let (Some((m1, m2)), Some((t1, t2)), Some(assign)) =
-                    (&clustered, &light.clustered, assign)
-                {
+                if let (Some((m1, m2)), Some(comp)) = (&clustered, &layout.compressed) {
                     // I1[s] = sum_b u[v][b] M1[b][s], I2 = sum_b u2[v][b] M2[b].
-                    let k = assign[v] as usize;
+                    let k = comp.clusters[v] as usize;
                     let mut flat = [0.0f32; SH_COUNT * 3];
-                    expand_vertex(t1, m1, SH_COUNT * 3, k, v, &mut flat);
+                    expand_vertex(&comp.t1, m1, SH_COUNT * 3, k, v, &mut flat);
                     for (acc, x) in i1.iter_mut().zip(flat.chunks_exact(3)) {
                         acc.copy_from_slice(x);
                     }
-                    if let (Some(m2), Some(t2)) = (m2, t2) {
+                    if let (Some(m2), Some(t2)) = (m2, &comp.t2) {
                         expand_vertex(t2, m2, 3, k, v, &mut i2);
                     }
                 }
