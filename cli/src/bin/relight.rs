@@ -266,6 +266,7 @@ fn run_vertex(args: Args, file: BakeFile) -> Result<()> {
     // A frame's wall-clock time also counts what `render` does besides the stages (the check
     // that a new eye is not inside an object).
     let mut views = vec![first.view_s];
+    let mut rasters = vec![first.raster_s];
     let mut frames = Vec::new();
     for k in 1..args.repeat {
         let cam = match args.orbit {
@@ -278,9 +279,11 @@ fn run_vertex(args: Args, file: BakeFile) -> Result<()> {
             .with_context(|| format!("frame {k} of the orbit"))?;
         frames.push(start.elapsed().as_secs_f64());
         views.push(stats.view_s);
+        rasters.push(stats.raster_s);
     }
     views.sort_by(f64::total_cmp);
     frames.sort_by(f64::total_cmp);
+    rasters.sort_by(f64::total_cmp);
     let view_median = views[views.len() / 2];
     let frame_median = frames.get(frames.len() / 2).copied();
     let pixels: Vec<[f32; 3]> = rgb.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
@@ -319,6 +322,7 @@ fn run_vertex(args: Args, file: BakeFile) -> Result<()> {
                 "frames": views.len(),
                 "view_s_median": view_median,
                 "view_s_min": views[0],
+                "raster_s_median": rasters[rasters.len() / 2],
                 "orbit_deg": args.orbit,
                 "frame_s_median": frame_median,
                 "ns_per_pixel_view": view_median * 1e9 / (f64::from(width) * f64::from(height)),
