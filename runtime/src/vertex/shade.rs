@@ -340,9 +340,11 @@ impl ViewInputs<'_> {
             return b.map(|v| v.max(0.0));
         };
         // A lobe reads the whole record (a diffuse material only E, above).
+        // Zipped slices, so the loop has no bounds checks and vectorizes.
         let mut rec = [0.0f32; MAX_RECORD];
-        for (k, r) in rec[..stride].iter_mut().enumerate() {
-            *r = lerp(k);
+        let [r0, r1, r2] = recs;
+        for (((r, a), b), c) in rec[..stride].iter_mut().zip(r0).zip(r1).zip(r2) {
+            *r = w[0] * a + w[1] * b + w[2] * c;
         }
         let basis = &s.shading[lobe.basis];
         let widths = &self.widths[lobe.basis];
