@@ -561,7 +561,7 @@ impl CubeMap {
     /// [`CubeMap::lookup_bilinear`] at the direction whose [`direction_to_face_st`] is
     /// `(face, s, t)`: for callers that look one direction up in several maps (or find its
     /// texel too) and convert it once.
-    #[inline]
+    #[inline(always)]
     pub fn lookup_bilinear_face_st(&self, face: Face, s: f64, t: f64) -> [f32; 3] {
         let n = self.size;
         let nf = n as f64;

@@ -426,7 +426,7 @@ fn reflected_rgb(
 
 /// [`reflected_rgb`] with the lobe's parameter taps and `wo`'s grid weights found by the
 /// caller (the weights serve both `U^o(wo)` and the split reflectances).
-#[inline]
+#[inline(always)]
 fn reflected_rgb_with(
     basis: &ShadingBasis,
     core: &[f32],
