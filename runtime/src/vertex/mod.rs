@@ -45,6 +45,7 @@ use crate::error::RuntimeError;
 use crate::light::LightCoefficients;
 use crate::materials::Materials;
 use crate::raster::{eye_verdict, Rasterizer, ViewRays, VisibilityBuffer};
+use crate::Kernel;
 use constants::ShadingConstants;
 use incident::{GroupLight, GroupShade, E_AT, I1_AT, I2_AT, U_AT};
 use open::{Scene, NO_GROUP};
@@ -119,6 +120,8 @@ pub struct VertexRelighter {
     visibility: VisibilityBuffer,
     /// The view stage's memory kept between frames.
     view: ViewCache,
+    /// The view stage's inner loops.
+    kernel: Kernel,
     /// The last eye that passed the inside-geometry check.
     eye_checked: Option<[f32; 3]>,
 }
@@ -196,8 +199,15 @@ impl VertexRelighter {
                 fragments: Vec::new(),
             },
             view: ViewCache::default(),
+            kernel: Kernel::Auto,
             eye_checked: None,
         })
+    }
+
+    /// Chooses the view stage's inner loops (default [`Kernel::Auto`]: AVX2 when the CPU has
+    /// it); the frames are the same bit for bit, only the speed differs.
+    pub fn set_kernel(&mut self, kernel: Kernel) {
+        self.kernel = kernel;
     }
 
     /// The bake's per-vertex metadata (materials, groups, the baked environment and camera).
@@ -406,7 +416,8 @@ impl VertexRelighter {
             },
             eye: camera.position,
         };
-        shade::view_stage(&inputs, &rays, &self.visibility, out);
+        let simd = self.kernel == Kernel::Auto;
+        shade::view_stage(&inputs, &rays, &self.visibility, simd, out);
         Ok(RenderStats {
             light_s,
             material_s,

@@ -206,16 +206,20 @@ pub(super) struct ViewInputs<'a> {
     pub eye: [f32; 3],
 }
 
-/// Shades every pixel of `vis` into `out` (RGB rows, top row first), rows in parallel.
+/// Shades every pixel of `vis` into `out` (RGB rows, top row first), rows in parallel; `simd`
+/// allows the AVX2 rows (the same pixels either way).
 pub(super) fn view_stage(
     inputs: &ViewInputs,
     rays: &ViewRays,
     vis: &VisibilityBuffer,
+    simd: bool,
     out: &mut [f32],
 ) {
     let width = vis.width as usize;
     #[cfg(target_arch = "x86_64")]
-    let avx2 = std::arch::is_x86_feature_detected!("avx2");
+    let avx2 = simd && std::arch::is_x86_feature_detected!("avx2");
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = simd;
     out.par_chunks_mut(3 * width)
         .zip(vis.fragments.par_chunks(width))
         .enumerate()
