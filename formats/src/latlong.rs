@@ -48,7 +48,7 @@ pub fn uv_to_direction(u: f32, v: f32) -> [f32; 3] {
 /// The poles give
 /// `v = 0` (+Y) and `v = 1` (-Y) with an arbitrary `u`. A `y` slightly outside `[-1, 1]`
 /// (an almost-unit vector) is clamped.
-#[inline]
+#[inline(always)]
 pub fn direction_to_uv(d: [f32; 3]) -> (f32, f32) {
     let [x, y, z] = d;
     let theta = y.clamp(-1.0, 1.0).acos();
@@ -85,7 +85,7 @@ pub fn texel_centre(x: usize, y: usize, width: usize, height: usize) -> (f32, f3
 /// close-up view blocky). Horizontally the map wraps around the seam (u = 0 = 1); vertically the
 /// half-texel bands next to the poles take the first and last row (clamped), so the value at a
 /// pole is the row's value at that azimuth. `width` and `height` must be at least 1.
-#[inline]
+#[inline(always)]
 pub fn bilinear(u: f32, v: f32, width: usize, height: usize) -> [(usize, f32); 4] {
     // Wrap u into [0, 1) first so that large |u| and the seam behave alike.
     let fx = u.rem_euclid(1.0) * width as f32 - 0.5;
@@ -114,7 +114,7 @@ pub fn bilinear(u: f32, v: f32, width: usize, height: usize) -> [(usize, f32); 4
 
 /// The bilinearly interpolated value (see [`bilinear`]) of an RGB `width x height` map,
 /// row-major with the top row first, in direction `d` (unit).
-#[inline]
+#[inline(always)]
 pub fn lookup_bilinear(texels: &[[f32; 3]], width: usize, height: usize, d: [f32; 3]) -> [f32; 3] {
     let (u, v) = direction_to_uv(d);
     let mut out = [0.0f32; 3];

@@ -17,8 +17,9 @@ use std::process::ExitCode;
 use anyhow::{bail, Context, Result};
 use clap::Parser;
 use prt_formats::envmap::{load_latlong, LatLongMap};
+use prt_formats::lighting::cubemap::rotation_y;
 use prt_formats::vertex::BakeKind;
-use prt_formats::view::CameraSpec;
+use prt_formats::view::{CameraFrame, CameraSpec};
 use prt_formats::{BakeFile, MaterialOverride};
 use prt_runtime::vertex::VertexRelighter;
 use prt_runtime::{Relighter, Variant};
@@ -77,6 +78,11 @@ struct Args {
     /// Per-vertex bakes: image height in pixels [default: 512].
     #[arg(long)]
     height: Option<u32>,
+    /// Per-vertex bakes, with --repeat: a moving camera. Frame k is seen from the camera
+    /// turned k times this many degrees about the world's +Y axis (right-hand rule), so every
+    /// repeat is a view-only change; the image written is the last frame's.
+    #[arg(long, value_name = "DEGREES", allow_negative_numbers = true)]
+    orbit: Option<f32>,
 }
 
 /// Image side when --width or --height is not given.
@@ -101,6 +107,7 @@ fn run(args: Args) -> Result<()> {
         ("--camera", args.camera.is_some()),
         ("--width", args.width.is_some()),
         ("--height", args.height.is_some()),
+        ("--orbit", args.orbit.is_some()),
     ]
     .into_iter()
     .filter_map(|(flag, given)| given.then_some(flag))
@@ -247,18 +254,38 @@ fn run_vertex(args: Args, file: BakeFile) -> Result<()> {
         args.width.unwrap_or(DEFAULT_SIDE),
         args.height.unwrap_or(DEFAULT_SIDE),
     );
+    if args.orbit.is_some_and(|d| !d.is_finite()) {
+        bail!("--orbit must be a finite number of degrees");
+    }
     let mut rgb = vec![0.0f32; 3 * width as usize * height as usize];
     let first = r.render(&camera, width, height, &mut rgb)?;
     if first.clamped {
         eprintln!("warning: a shininess/alpha lies outside its basis' sampled range and was clamped to it");
     }
-    // Repeats change nothing: they measure the view stage alone.
+    // Repeats change nothing but the camera (with --orbit): they measure the view stage alone.
+    // A frame's wall-clock time also counts what `render` does besides the stages (the check
+    // that a new eye is not inside an object).
     let mut views = vec![first.view_s];
-    for _ in 1..args.repeat {
-        views.push(r.render(&camera, width, height, &mut rgb)?.view_s);
+    let mut rasters = vec![first.raster_s];
+    let mut frames = Vec::new();
+    for k in 1..args.repeat {
+        let cam = match args.orbit {
+            Some(deg) => orbit(&camera, deg * k as f32),
+            None => camera,
+        };
+        let start = std::time::Instant::now();
+        let stats = r
+            .render(&cam, width, height, &mut rgb)
+            .with_context(|| format!("frame {k} of the orbit"))?;
+        frames.push(start.elapsed().as_secs_f64());
+        views.push(stats.view_s);
+        rasters.push(stats.raster_s);
     }
     views.sort_by(f64::total_cmp);
+    frames.sort_by(f64::total_cmp);
+    rasters.sort_by(f64::total_cmp);
     let view_median = views[views.len() / 2];
+    let frame_median = frames.get(frames.len() / 2).copied();
     let pixels: Vec<[f32; 3]> = rgb.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
     let out = args.out.clone().unwrap_or_else(|| default_out(&args.bake));
     prt_formats::write_image(
@@ -295,6 +322,10 @@ fn run_vertex(args: Args, file: BakeFile) -> Result<()> {
                 "frames": views.len(),
                 "view_s_median": view_median,
                 "view_s_min": views[0],
+                "raster_s_median": rasters[rasters.len() / 2],
+                "orbit_deg": args.orbit,
+                "frame_s_median": frame_median,
+                "ns_per_pixel_view": view_median * 1e9 / (f64::from(width) * f64::from(height)),
                 "threads": rayon::current_num_threads(),
                 "clamped": first.clamped,
             })
@@ -309,4 +340,20 @@ fn run_vertex(args: Args, file: BakeFile) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// `camera` turned `deg` degrees about the world's +Y axis (right-hand rule).
+fn orbit(camera: &CameraFrame, deg: f32) -> CameraFrame {
+    let m = rotation_y(f64::from(deg));
+    let turn = |v: [f32; 3]| -> [f32; 3] {
+        let v = v.map(f64::from);
+        std::array::from_fn(|i| (m[i][0] * v[0] + m[i][1] * v[1] + m[i][2] * v[2]) as f32)
+    };
+    CameraFrame {
+        position: turn(camera.position),
+        forward: turn(camera.forward),
+        right: turn(camera.right),
+        up: turn(camera.up),
+        yfov: camera.yfov,
+    }
 }

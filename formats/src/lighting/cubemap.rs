@@ -161,8 +161,14 @@ pub fn texel_at(size: usize, index: usize) -> Option<(Face, usize, usize)> {
 /// below; `s = 1` or `t = 1` fall in the last column or row. A size of 0 is treated as 1.
 #[inline]
 pub fn direction_to_texel(size: usize, d: [f64; 3]) -> (Face, usize, usize) {
-    let n = size.max(1);
     let (face, s, t) = direction_to_face_st(d);
+    face_st_to_texel(size, face, s, t)
+}
+
+/// [`direction_to_texel`] of the direction whose [`direction_to_face_st`] is `(face, s, t)`.
+#[inline]
+pub fn face_st_to_texel(size: usize, face: Face, s: f64, t: f64) -> (Face, usize, usize) {
+    let n = size.max(1);
     let i = ((s * n as f64) as usize).min(n - 1);
     let j = ((t * n as f64) as usize).min(n - 1);
     (face, i, j)
@@ -548,9 +554,17 @@ impl CubeMap {
     /// and half). At a cube corner, where three faces meet, the missing fourth texel is one
     /// of the corner's texels (chosen by [`direction_to_texel`]).
     pub fn lookup_bilinear(&self, d: [f64; 3]) -> [f32; 3] {
+        let (face, s, t) = direction_to_face_st(d);
+        self.lookup_bilinear_face_st(face, s, t)
+    }
+
+    /// [`CubeMap::lookup_bilinear`] at the direction whose [`direction_to_face_st`] is
+    /// `(face, s, t)`: for callers that look one direction up in several maps (or find its
+    /// texel too) and convert it once.
+    #[inline(always)]
+    pub fn lookup_bilinear_face_st(&self, face: Face, s: f64, t: f64) -> [f32; 3] {
         let n = self.size;
         let nf = n as f64;
-        let (face, s, t) = direction_to_face_st(d);
         // Texel centres sit at integers of fx, fy; both lie in [-0.5, n - 0.5].
         let (fx, fy) = (s * nf - 0.5, t * nf - 0.5);
         let (x0, y0) = (fx.floor(), fy.floor());

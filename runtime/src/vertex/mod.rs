@@ -46,10 +46,11 @@ use crate::error::RuntimeError;
 use crate::light::LightCoefficients;
 use crate::materials::Materials;
 use crate::raster::{eye_verdict, Rasterizer, ViewRays, VisibilityBuffer};
+use crate::Kernel;
 use constants::ShadingConstants;
 use incident::{GroupLight, GroupShade, E_AT, I1_AT, I2_AT, U_AT};
 use open::{Scene, NO_GROUP};
-use shade::{Environment, Lobe, Prefiltered, ViewInputs, Width};
+use shade::{Environment, Lobe, Prefiltered, ViewCache, ViewInputs, Width};
 
 /// What a [`VertexRelighter::render`] cost, per stage (wall-clock seconds; `None` when the
 /// stage's cached result was reused).
@@ -61,6 +62,8 @@ pub struct RenderStats {
     pub material_s: Option<f64>,
     /// The view stage (rasterization and shading).
     pub view_s: f64,
+    /// The rasterization part of `view_s`.
+    pub raster_s: f64,
     /// Whether a lobe parameter lay outside its basis' sampled range (and was clamped to it).
     pub clamped: bool,
 }
@@ -116,6 +119,10 @@ pub struct VertexRelighter {
     shaded: Option<ShadeState>,
     rasterizer: Rasterizer,
     visibility: VisibilityBuffer,
+    /// The view stage's memory kept between frames.
+    view: ViewCache,
+    /// The view stage's inner loops.
+    kernel: Kernel,
     /// The last eye that passed the inside-geometry check.
     eye_checked: Option<[f32; 3]>,
 }
@@ -192,8 +199,16 @@ impl VertexRelighter {
                 near: 0.0,
                 fragments: Vec::new(),
             },
+            view: ViewCache::default(),
+            kernel: Kernel::Auto,
             eye_checked: None,
         })
+    }
+
+    /// Chooses the view stage's inner loops (default [`Kernel::Auto`]: AVX2 when the CPU has
+    /// it); the frames are the same bit for bit, only the speed differs.
+    pub fn set_kernel(&mut self, kernel: Kernel) {
+        self.kernel = kernel;
     }
 
     /// The bake's per-vertex metadata (materials, groups, the baked environment and camera).
@@ -356,6 +371,7 @@ impl VertexRelighter {
             height,
             &mut self.visibility,
         )?;
+        let raster_s = start.elapsed().as_secs_f64();
         let (Some(light), Some(shaded)) = (&self.light, &self.shaded) else {
             // Both were just made.
             return Err(RuntimeError::VertexSchema {
@@ -363,13 +379,12 @@ impl VertexRelighter {
                 reason: "the light or material stage has no result".into(),
             });
         };
-        let path = self.file.path().display().to_string();
         for (b, ws) in self.widths.iter().enumerate() {
             for w in ws {
                 if let Prefiltered::Cube(i) = w.lookup {
                     if light.coefficients.widths_deg.get(i) != Some(&f64::from(w.degrees)) {
                         return Err(RuntimeError::VertexSchema {
-                            path,
+                            path: self.file.path().display().to_string(),
                             reason: format!(
                                 "shading basis {b}: split width {} degrees does not match the \
                                  light's prefiltered widths {:?}",
@@ -380,25 +395,21 @@ impl VertexRelighter {
                 }
             }
         }
-        let mut visibility = Vec::with_capacity(self.meta.groups.len());
-        for g in 0..self.meta.groups.len() {
-            let name = prt_formats::vertex::names::visibility(g);
-            visibility.push(self.file.tensor(&name)?.as_u8()?);
-        }
-        let textures = self
-            .meta
-            .material_textures
-            .iter()
-            .map(|t| t.map(|t| &self.scene.textures[t as usize]))
-            .collect();
+        self.view.prepare(
+            &self.file,
+            &self.scene,
+            self.meta.groups.len(),
+            self.materials.all(),
+            &shaded.lobes,
+            &self.meta.material_textures,
+        )?;
         let inputs = ViewInputs {
             scene: &self.scene,
             shades: &shaded.groups,
-            visibility,
-            params: self.materials.all(),
+            file_bytes: self.file.file_bytes(),
+            cache: &self.view,
             lobes: &shaded.lobes,
             widths: &self.widths,
-            textures,
             light: &light.coefficients,
             environment: Environment {
                 map: &self.environment,
@@ -406,11 +417,13 @@ impl VertexRelighter {
             },
             eye: camera.position,
         };
-        shade::view_stage(&inputs, &rays, &self.visibility, out);
+        let simd = self.kernel == Kernel::Auto;
+        shade::view_stage(&inputs, &rays, &self.visibility, simd, out);
         Ok(RenderStats {
             light_s,
             material_s,
             view_s: start.elapsed().as_secs_f64(),
+            raster_s,
             clamped: shaded.clamped,
         })
     }

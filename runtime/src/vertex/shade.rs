@@ -24,20 +24,24 @@
 //! rows are evaluated once per pixel instead of once per channel; a unit test checks the two
 //! agree).
 
-use prt_formats::basis::{mirror, ShadingBasis, MAX_SHADING_RANK, MAX_SPLIT_WIDTHS};
+use std::ops::Range;
+
+use prt_formats::basis::{mirror, HemiWeights, ShadingBasis, MAX_SHADING_RANK, MAX_SPLIT_WIDTHS};
 use prt_formats::envmap::LatLongMap;
 use prt_formats::latlong;
-use prt_formats::lighting::cubemap::{direction_to_texel, texel_index};
+use prt_formats::lighting::cubemap::{direction_to_face_st, face_st_to_texel, texel_index};
 use prt_formats::lighting::sh::{sh_band, sh_eval_f32, SH_BANDS, SH_COUNT};
 use prt_formats::pixel::MaterialParams;
 use prt_formats::texture::sample_bilinear;
 use prt_formats::vertex::{to_local, vertex_frame, VISIBILITY_CUBE};
+use prt_formats::BakeFile;
 use rayon::prelude::*;
 
 use super::incident::{GroupShade, E_AT, I1_AT, I2_AT, U_AT};
-use super::open::{Scene, Texture};
+use super::open::Scene;
+use crate::error::RuntimeError;
 use crate::light::LightCoefficients;
-use crate::raster::{ViewRays, VisibilityBuffer};
+use crate::raster::{Fragment, ViewRays, VisibilityBuffer};
 
 /// The longest vertex record (`U_AT + 3 MAX_SHADING_RANK`).
 const MAX_RECORD: usize = U_AT + 3 * MAX_SHADING_RANK;
@@ -73,6 +77,100 @@ pub(super) struct Lobe {
     pub param: f32,
 }
 
+/// The parameter samples a lobe's split reflectances are blended from, with their weights
+/// (`ShadingBasis::reflectances_into`'s, skipping a zero weight): they depend on the material
+/// only, so they are found once per frame instead of once per pixel.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct ParamTaps {
+    taps: [(usize, f32); 2],
+    len: usize,
+}
+
+impl ParamTaps {
+    pub(super) fn new(basis: &ShadingBasis, param: f32) -> ParamTaps {
+        let (pw, _) = basis.param_weights(param);
+        let mut out = ParamTaps {
+            taps: [(0, 0.0); 2],
+            len: 0,
+        };
+        for (j, s) in [(pw.j0, 1.0 - pw.t), (pw.j1, pw.t)] {
+            if s > 0.0 {
+                out.taps[out.len] = (j, s);
+                out.len += 1;
+            }
+        }
+        out
+    }
+
+    fn taps(&self) -> &[(usize, f32)] {
+        &self.taps[..self.len]
+    }
+}
+
+/// One material as the view stage reads it, gathered once per frame.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct MaterialView {
+    /// Its group (None: no data, shown black).
+    group: Option<usize>,
+    kd: [f32; 3],
+    ks: [f32; 3],
+    /// Index into `Scene::textures`.
+    texture: Option<usize>,
+    /// Its lobe's split reflectance taps (None: diffuse only).
+    taps: Option<ParamTaps>,
+}
+
+/// What the view stage keeps between frames so that a frame allocates nothing: the per-frame
+/// material table and where each group's visibility tensor lies in the file.
+#[derive(Default)]
+pub(super) struct ViewCache {
+    materials: Vec<MaterialView>,
+    /// Per group, the byte range of its visibility tensor in `BakeFile::file_bytes`.
+    visibility: Vec<Range<usize>>,
+}
+
+impl ViewCache {
+    /// Finds the groups' visibility tensors (once per file) and gathers the materials.
+    pub(super) fn prepare(
+        &mut self,
+        file: &BakeFile,
+        scene: &Scene,
+        groups: usize,
+        params: &[MaterialParams],
+        lobes: &[Option<Lobe>],
+        textures: &[Option<u32>],
+    ) -> Result<(), RuntimeError> {
+        if self.visibility.len() != groups {
+            self.visibility.clear();
+            for g in 0..groups {
+                let t = file.tensor(&prt_formats::vertex::names::visibility(g))?;
+                let bytes = t.as_u8()?;
+                let at = t.file_offset();
+                debug_assert_eq!(
+                    file.file_bytes().get(at..at + bytes.len()),
+                    Some(bytes),
+                    "file_offset locates the tensor"
+                );
+                self.visibility.push(at..at + bytes.len());
+            }
+        }
+        self.materials.clear();
+        self.materials
+            .extend(params.iter().enumerate().map(|(m, p)| {
+                MaterialView {
+                    group: scene.material_group[m].map(|g| g as usize),
+                    kd: p.kd,
+                    ks: p.ks,
+                    texture: textures[m].map(|t| t as usize),
+                    taps: lobes[m]
+                        .as_ref()
+                        .map(|l| ParamTaps::new(&scene.shading[l.basis], l.param)),
+                }
+            }));
+        Ok(())
+    }
+}
+
 /// The environment as the view stage looks it up.
 pub(super) struct Environment<'a> {
     pub map: &'a LatLongMap,
@@ -82,7 +180,7 @@ pub(super) struct Environment<'a> {
 
 impl Environment<'_> {
     /// The radiance arriving from (unit) direction `d`.
-    #[inline]
+    #[inline(always)]
     pub(super) fn radiance(&self, d: [f32; 3]) -> [f32; 3] {
         let d = d.map(f64::from);
         let m = &self.back;
@@ -96,43 +194,74 @@ impl Environment<'_> {
 pub(super) struct ViewInputs<'a> {
     pub scene: &'a Scene,
     pub shades: &'a [GroupShade],
-    /// Per group, its visibility tensor `[V_g][6 16 16]`.
-    pub visibility: Vec<&'a [u8]>,
-    pub params: &'a [MaterialParams],
+    /// The bake file's bytes, which hold the visibility tensors (`cache`).
+    pub file_bytes: &'a [u8],
+    pub cache: &'a ViewCache,
     /// Per material, its lobe (None: diffuse only).
     pub lobes: &'a [Option<Lobe>],
     /// Per shading basis, its widths.
     pub widths: &'a [Vec<Width>],
-    /// Per material, its texture.
-    pub textures: Vec<Option<&'a Texture>>,
     pub light: &'a LightCoefficients,
     pub environment: Environment<'a>,
     pub eye: [f32; 3],
 }
 
-/// Shades every pixel of `vis` into `out` (RGB rows, top row first), rows in parallel.
+/// Shades every pixel of `vis` into `out` (RGB rows, top row first), rows in parallel; `simd`
+/// allows the AVX2 rows (the same pixels either way).
 pub(super) fn view_stage(
     inputs: &ViewInputs,
     rays: &ViewRays,
     vis: &VisibilityBuffer,
+    simd: bool,
     out: &mut [f32],
 ) {
     let width = vis.width as usize;
+    #[cfg(target_arch = "x86_64")]
+    let avx2 = simd && std::arch::is_x86_feature_detected!("avx2");
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = simd;
     out.par_chunks_mut(3 * width)
+        .zip(vis.fragments.par_chunks(width))
         .enumerate()
-        .for_each(|(y, row)| {
-            for (x, px) in row.chunks_exact_mut(3).enumerate() {
-                let f = vis.fragments[y * width + x];
-                let rgb = if f.is_empty() {
-                    inputs
-                        .environment
-                        .radiance(rays.pixel_direction(x as u32, y as u32))
-                } else {
-                    inputs.shade(f.triangle as usize, f.bary)
-                };
-                px.copy_from_slice(&rgb);
+        .for_each(|(y, (row, frags))| {
+            #[cfg(target_arch = "x86_64")]
+            if avx2 {
+                // SAFETY: the CPU supports AVX2 (checked above).
+                unsafe { shade_row_avx2(inputs, rays, y as u32, frags, row) };
+                return;
             }
+            shade_row(inputs, rays, y as u32, frags, row);
         });
+}
+
+/// [`shade_row`] compiled for AVX2: the same operations in the same order (Rust never fuses
+/// a multiply and an add), so the same pixels bit for bit; the compiler gets wider vectors for
+/// the record interpolation and rounding instructions instead of calls for `floor`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn shade_row_avx2(
+    inputs: &ViewInputs,
+    rays: &ViewRays,
+    y: u32,
+    frags: &[Fragment],
+    row: &mut [f32],
+) {
+    shade_row(inputs, rays, y, frags, row);
+}
+
+/// Shades row `y`: its fragments `frags` into `row` (RGB).
+#[inline(always)]
+fn shade_row(inputs: &ViewInputs, rays: &ViewRays, y: u32, frags: &[Fragment], row: &mut [f32]) {
+    for (x, (px, f)) in row.chunks_exact_mut(3).zip(frags).enumerate() {
+        let rgb = if f.is_empty() {
+            inputs
+                .environment
+                .radiance(rays.pixel_direction(x as u32, y))
+        } else {
+            inputs.shade(f.triangle as usize, f.bary)
+        };
+        px.copy_from_slice(&rgb);
+    }
 }
 
 fn normalize(v: [f32; 3]) -> [f32; 3] {
@@ -142,6 +271,7 @@ fn normalize(v: [f32; 3]) -> [f32; 3] {
 
 impl ViewInputs<'_> {
     /// The radiance towards the eye from the point of triangle `t` at barycentrics `bary`.
+    #[inline(always)]
     fn shade(&self, t: usize, bary: [f32; 2]) -> [f32; 3] {
         let s = self.scene;
         let tri = s.triangles[t];
@@ -184,21 +314,19 @@ impl ViewInputs<'_> {
             let k = (1.0 - z * z).sqrt() / h;
             wo_l = [wo_l[0] * k, wo_l[1] * k, z];
         }
-        // Every vertex of the triangle is in its material's group (checked on open).
-        let local = tri.map(|v| s.vertex_group[v as usize].1 as usize);
-        let Some(g) = s.material_group[m].map(|g| g as usize) else {
+        let material = &self.cache.materials[m];
+        let Some(g) = material.group else {
             return [0.0; 3];
         };
+        // Every vertex of the triangle is in its material's group (checked on open).
+        let local = tri.map(|v| s.vertex_group[v as usize].1 as usize);
         let shade = &self.shades[g];
         let stride = shade.stride;
-        let mut rec = [0.0f32; MAX_RECORD];
         let recs = local.map(|l| &shade.data[l * stride..(l + 1) * stride]);
-        for (k, r) in rec[..stride].iter_mut().enumerate() {
-            *r = w[0] * recs[0][k] + w[1] * recs[1][k] + w[2] * recs[2][k];
-        }
-        let params = &self.params[m];
-        let tex = match self.textures[m] {
-            Some(tx) => {
+        let lerp = |k: usize| w[0] * recs[0][k] + w[1] * recs[1][k] + w[2] * recs[2][k];
+        let tex = match material.texture {
+            Some(i) => {
+                let tx = &s.textures[i];
                 let uvs = tri.map(|v| s.uvs[v as usize]);
                 let uv = [
                     w[0] * uvs[0][0] + w[1] * uvs[1][0] + w[2] * uvs[2][0],
@@ -210,21 +338,30 @@ impl ViewInputs<'_> {
         };
         let inv_pi = std::f32::consts::FRAC_1_PI;
         let mut b: [f32; 3] =
-            std::array::from_fn(|c| params.kd[c] * tex[c] * inv_pi * rec[E_AT + c]);
-        let Some(lobe) = &self.lobes[m] else {
+            std::array::from_fn(|c| material.kd[c] * tex[c] * inv_pi * lerp(E_AT + c));
+        let (Some(lobe), Some(taps)) = (&self.lobes[m], &material.taps) else {
             // The irradiance's kept Haar terms and SH can ring below 0 too (see below).
             return b.map(|v| v.max(0.0));
         };
+        // A lobe reads the whole record (a diffuse material only E, above).
+        // Zipped slices, so the loop has no bounds checks and vectorizes.
+        let mut rec = [0.0f32; MAX_RECORD];
+        let [r0, r1, r2] = recs;
+        for (((r, a), b), c) in rec[..stride].iter_mut().zip(r0).zip(r1).zip(r2) {
+            *r = w[0] * a + w[1] * b + w[2] * c;
+        }
         let basis = &s.shading[lobe.basis];
         let widths = &self.widths[lobe.basis];
         // The mirror direction, local and world.
         let r_l = mirror(wo_l);
         let r_w: [f32; 3] =
             std::array::from_fn(|i| tangent[i] * r_l[0] + bitangent[i] * r_l[1] + n[i] * r_l[2]);
+        // Its cube-face coordinates, shared by the visibility texel and every prefiltered cube.
+        let (face, fs, ft) = direction_to_face_st(r_w.map(f64::from));
         // Visible fraction of the 16-cube texel holding r.
-        let (face, ti, tj) = direction_to_texel(VISIBILITY_CUBE, r_w.map(f64::from));
-        let texel = texel_index(VISIBILITY_CUBE, face, ti, tj);
-        let rows = self.visibility[g];
+        let (face_v, ti, tj) = face_st_to_texel(VISIBILITY_CUBE, face, fs, ft);
+        let texel = texel_index(VISIBILITY_CUBE, face_v, ti, tj);
+        let rows = &self.file_bytes[self.cache.visibility[g].clone()];
         let per_vertex = 6 * VISIBILITY_CUBE * VISIBILITY_CUBE;
         let visible: f32 = (0..3)
             .map(|k| w[k] * f32::from(rows[local[k] * per_vertex + texel]) / 255.0)
@@ -243,7 +380,7 @@ impl ViewInputs<'_> {
             let ibar = match wd.lookup {
                 Prefiltered::Environment => self.environment.radiance(r_w),
                 Prefiltered::Cube(i) => {
-                    self.light.prefiltered[i].lookup_bilinear(r_w.map(f64::from))
+                    self.light.prefiltered[i].lookup_bilinear_face_st(face, fs, ft)
                 }
             };
             for c in 0..3 {
@@ -252,9 +389,16 @@ impl ViewInputs<'_> {
             }
         }
         let incident = &rec[U_AT..U_AT + 3 * basis.ranks.i];
-        let spec = reflected_rgb(basis, lobe, wo_l, incident, &prefiltered[..widths.len()]);
+        let spec = reflected_rgb_with(
+            basis,
+            &lobe.core,
+            taps,
+            basis.dir_weights(wo_l),
+            incident,
+            &prefiltered[..widths.len()],
+        );
         for c in 0..3 {
-            b[c] += params.ks[c] * spec[c];
+            b[c] += material.ks[c] * spec[c];
         }
         // Radiance is never negative, but its approximations can be: the Tucker residual, the
         // order-4 SH of I1 and the kept Haar terms each ring a little next to sharp features
@@ -265,21 +409,56 @@ impl ViewInputs<'_> {
 
 /// `ShadingBasis::reflected` for three channels: `incident` is `U[c][ch]` (`r_i x 3`),
 /// `prefiltered[w][ch]` the `S_w`; `wo` above the horizon.
-pub(super) fn reflected_rgb(
+#[cfg(test)]
+fn reflected_rgb(
     basis: &ShadingBasis,
     lobe: &Lobe,
     wo: [f32; 3],
     incident: &[f32],
     prefiltered: &[[f32; 3]],
 ) -> [f32; 3] {
+    let taps = ParamTaps::new(basis, lobe.param);
+    reflected_rgb_with(
+        basis,
+        &lobe.core,
+        &taps,
+        basis.dir_weights(wo),
+        incident,
+        prefiltered,
+    )
+}
+
+/// [`reflected_rgb`] with the lobe's parameter taps and `wo`'s grid weights found by the
+/// caller (the weights serve both `U^o(wo)` and the split reflectances).
+#[inline(always)]
+fn reflected_rgb_with(
+    basis: &ShadingBasis,
+    core: &[f32],
+    taps: &ParamTaps,
+    dw: HemiWeights,
+    incident: &[f32],
+    prefiltered: &[[f32; 3]],
+) -> [f32; 3] {
     let (ro, ri) = (basis.ranks.o, basis.ranks.i);
     let mut uo = [0.0f32; MAX_SHADING_RANK];
-    basis.u_o_row(wo, &mut uo);
+    dw.interpolate(&basis.u_o, &basis.u_o_pole, ro, &mut uo);
+    // `ShadingBasis::reflectances_into` with the taps found once.
+    let nw = basis.n_widths();
+    let slab = basis.n_dirs() * nw;
     let mut rw = [0.0f32; MAX_SPLIT_WIDTHS];
-    basis.reflectances_into(lobe.param, wo, &mut rw);
+    for &(j, s) in taps.taps() {
+        let table = &basis.reflectances[j * slab..][..slab];
+        dw.add_rows(
+            table,
+            &basis.reflectances_pole[j * nw..][..nw],
+            nw,
+            s,
+            &mut rw,
+        );
+    }
     let mut out = [0.0f32; 3];
     for (bo, &u) in uo[..ro].iter().enumerate() {
-        let row = &lobe.core[bo * ri..(bo + 1) * ri];
+        let row = &core[bo * ri..(bo + 1) * ri];
         let mut s = [0.0f32; 3];
         for (d, x) in row.iter().zip(incident.chunks_exact(3)) {
             for c in 0..3 {
@@ -290,7 +469,7 @@ pub(super) fn reflected_rgb(
             out[c] += u * s[c];
         }
     }
-    for (r, p) in rw.iter().zip(prefiltered) {
+    for (r, p) in rw[..nw].iter().zip(prefiltered) {
         for c in 0..3 {
             out[c] += r * p[c];
         }

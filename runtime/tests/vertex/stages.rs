@@ -8,6 +8,7 @@ use prt_formats::pixel::Precision;
 use prt_formats::Family;
 use prt_runtime::light::LightCoefficients;
 use prt_runtime::vertex::VertexRelighter;
+use prt_runtime::Kernel;
 
 use crate::common::*;
 
@@ -117,6 +118,25 @@ fn cached_stages_give_the_image_of_a_fresh_relighter_bit_for_bit() {
     // The image is not trivial: the surface shows and varies.
     let distinct: std::collections::BTreeSet<u32> = out.iter().map(|v| v.to_bits()).collect();
     assert!(distinct.len() > 500, "{}", distinct.len());
+}
+
+#[test]
+fn the_avx2_and_portable_view_stages_give_the_same_bits() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("busy.prtbake");
+    busy_bake(&path);
+    let mut r = VertexRelighter::open(&path).expect("open");
+    // Glossy and diffuse pixels, the background, and a grazing view near the horizon.
+    for (eye, fov) in [([0.4, 1.5, 2.0], 60.0), ([-2.5, 0.15, 0.3], 70.0)] {
+        let cam = camera(eye, fov);
+        r.set_kernel(Kernel::Auto);
+        let auto = render(&mut r, &cam, W, H);
+        r.set_kernel(Kernel::Scalar);
+        let scalar = render(&mut r, &cam, W, H);
+        let lit = scalar.iter().filter(|&&v| v > 0.0).count();
+        assert!(lit > scalar.len() / 2, "{eye:?}: mostly black ({lit} lit)");
+        same_bits(&auto, &scalar, &format!("eye {eye:?}"));
+    }
 }
 
 #[test]
