@@ -1,44 +1,42 @@
-//! Traversal of obvhs' compressed wide BVH (CWBVH, Ylitie et al. 2017) with our own node test:
-//! all eight children of a node against the ray at once, in lanes the compiler vectorizes
-//! (8-wide with AVX2, 2 x 4 with the SSE2 baseline; see `Accel`'s dispatch in `mod.rs`).
+//! Traversal of our BVH8 ([`super::bvh8`]): all eight child boxes of a node against the ray at
+//! once, in lanes the compiler vectorizes (8-wide with AVX2, 2 x 4 with the SSE2 baseline; see
+//! `Accel`'s dispatch in `mod.rs`), children visited nearest first, a leaf's triangles tested
+//! four at once ([`triangle::intersect4`]).
 //!
-//! The traversal order and the node/leaf bookkeeping are obvhs' (its `traverse!` macro: child
-//! groups ordered by the ray's octant, leaves as bit groups of primitives); what differs is the
-//! node test:
+//! The node test is conservative in floating point: the boxes are already grown by 1/64 of
+//! their CWBVH grid cell ([`super::bvh8`]), and the exit distance, after clamping to the ray's
+//! current tmax, grows by 16 ulp: more than the rounding of the slab distances and of the
+//! triangle test's t, so a triangle lying in a box face (axis-aligned walls: zero-thickness
+//! boxes) is never culled by a rounding, not even when it is a hair closer than the hit found
+//! so far; the watertight triangle test decides. Entry distances are clamped to the ray's own
+//! tmin (obvhs' traversal clamped them to 1e-4, so a ray leaving a wall near a corner missed
+//! the adjacent wall when it was closer than that: 196 of 2M rays on the Cornell box).
 //!
-//! - obvhs clamps every child's entry distance to at least 1e-4, so a ray leaving a wall near a
-//!   corner missed the adjacent wall when it was closer than that (196 of 2M rays on the
-//!   Cornell box); we clamp to the ray's own tmin;
-//! - it is conservative in floating point: each quantized child box is grown by 1/64 of its
-//!   grid cell on every side, and the exit distance, after clamping to the ray's current tmax,
-//!   by 16 ulp: more than the rounding of the slab distances and of the triangle test's t, so
-//!   a triangle lying in a box face (axis-aligned walls: zero-thickness boxes) is never culled
-//!   by a rounding, not even when it is a hair closer than the hit found so far (obvhs' test
-//!   missed such hits at the corners of a closed box); the watertight triangle test decides;
-//! - one ray, eight lanes of plain `if a > b` min/max, so the vectorized and scalar code give
-//!   the same answers bit for bit (Rust never contracts a*b+c into an FMA).
+//! Since culling never drops a triangle closer than the current tmax, the closest hit is the
+//! least t over all triangles whatever the visiting order; only between triangles at exactly
+//! the same t can the order decide (the first found is kept). Plain `if a > b` min/max: the
+//! vectorized and scalar code give the same answers bit for bit (Rust never contracts a*b+c
+//! into an FMA).
 //!
 //! Closest hit shrinks tmax as it finds hits; occlusion (`ANY`) stops at the first.
 
-use glam::{Vec3, Vec3A};
-use obvhs::cwbvh::node::CwBvhNode;
+use glam::Vec3;
 
-use super::triangle::{self, RayTri, Tri};
+use super::bvh8::{Bvh8, Node, LEAF};
+use super::triangle::{self, RayTri};
 
-/// Child boxes grow by this many quantization cells on each side.
-const BOX_PAD: f32 = 1.0 / 64.0;
 /// Exit distances (clamped to the ray's tmax) grow by this factor (16 ulp).
 const EXIT_GROW: f32 = 1.0 + 16.0 * f32::EPSILON;
-/// Stack of child groups: one entry per BVH level at most (obvhs' BVH8s stay under 32).
-const STACK: usize = 64;
+/// Traversal stack entries: at most 7 per level pushed (obvhs' BVH8s stay under 32 levels).
+const STACK: usize = 256;
 
 /// The per-ray constants of the node test.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct RayNode {
-    origin: Vec3A,
-    inv_dir: Vec3A,
-    neg: [bool; 3],
-    oct_inv4: u32,
+    org: [f32; 3],
+    inv_dir: [f32; 3],
+    /// Row of `Node::bounds` holding the near plane along each axis (the far one is `^ 1`).
+    near: [usize; 3],
     tmin: f32,
 }
 
@@ -53,14 +51,11 @@ impl RayNode {
                 d
             }
         };
-        let oct_inv4 = (if dir.x < 0.0 { 0 } else { 0x04040404 })
-            | (if dir.y < 0.0 { 0 } else { 0x02020202 })
-            | (if dir.z < 0.0 { 0 } else { 0x01010101 });
+        let near = |axis: usize, d: f32| 2 * axis + (d < 0.0) as usize;
         RayNode {
-            origin: origin.into(),
-            inv_dir: Vec3A::new(inv(dir.x), inv(dir.y), inv(dir.z)),
-            neg: [dir.x < 0.0, dir.y < 0.0, dir.z < 0.0],
-            oct_inv4,
+            org: origin.to_array(),
+            inv_dir: [inv(dir.x), inv(dir.y), inv(dir.z)],
+            near: [near(0, dir.x), near(1, dir.y), near(2, dir.z)],
             tmin,
         }
     }
@@ -84,127 +79,93 @@ fn min(a: f32, b: f32) -> f32 {
     }
 }
 
-/// The node's hit mask in obvhs' layout: bits 24..32 the internal children hit (by traversal
-/// priority), bits 0..24 the primitives of the leaf children hit.
+/// Bit i set when child i's box overlaps the ray in (tmin, tmax); its entry distance in
+/// `tn[i]`.
 #[inline(always)]
-fn node_hits(node: &CwBvhNode, r: &RayNode, tmax: f32) -> u32 {
-    // Child plane at quantized q along an axis: t = q * a + b.
-    let a = node.compute_extent() * r.inv_dir;
-    let b = (Vec3A::from(node.p) - r.origin) * r.inv_dir;
-    let pad = a.abs() * BOX_PAD;
-    let (bn, bf) = (b - pad, b + pad);
-    let pick = |neg: bool, lo: &[u8; 8], hi: &[u8; 8]| if neg { (*hi, *lo) } else { (*lo, *hi) };
-    let (nx, fx) = pick(r.neg[0], &node.child_min_x, &node.child_max_x);
-    let (ny, fy) = pick(r.neg[1], &node.child_min_y, &node.child_max_y);
-    let (nz, fz) = pick(r.neg[2], &node.child_min_z, &node.child_max_z);
-    let mut hit = [0u8; 8];
-    for i in 0..8 {
-        let tnx = nx[i] as f32 * a.x + bn.x;
-        let tny = ny[i] as f32 * a.y + bn.y;
-        let tnz = nz[i] as f32 * a.z + bn.z;
-        let tfx = fx[i] as f32 * a.x + bf.x;
-        let tfy = fy[i] as f32 * a.y + bf.y;
-        let tfz = fz[i] as f32 * a.z + bf.z;
-        let tn = max(max(tnx, tny), max(tnz, r.tmin));
-        let tf = min(min(min(tfx, tfy), tfz), tmax) * EXIT_GROW;
-        hit[i] = if tn <= tf { 0xff } else { 0 };
-    }
-    let (child_bits8, bit_index8) = node.get_child_and_index_bits(r.oct_inv4);
-    let sel = child_bits8 & u64::from_le_bytes(hit);
+fn node_hits(node: &Node, r: &RayNode, tmax: f32, tn: &mut [f32; 8]) -> u32 {
+    let b = &node.bounds;
+    let row = |k: usize| &b[k % 6];
+    let (nx, fx) = (row(r.near[0]), row(r.near[0] ^ 1));
+    let (ny, fy) = (row(r.near[1]), row(r.near[1] ^ 1));
+    let (nz, fz) = (row(r.near[2]), row(r.near[2] ^ 1));
+    let [ox, oy, oz] = r.org;
+    let [ix, iy, iz] = r.inv_dir;
     let mut mask = 0u32;
     for i in 0..8 {
-        let bits = ((sel >> (8 * i)) & 0xff) as u32;
-        let index = ((bit_index8 >> (8 * i)) & 0x1f) as u32;
-        mask |= bits << index;
+        let tnx = (nx[i] - ox) * ix;
+        let tny = (ny[i] - oy) * iy;
+        let tnz = (nz[i] - oz) * iz;
+        let tfx = (fx[i] - ox) * ix;
+        let tfy = (fy[i] - oy) * iy;
+        let tfz = (fz[i] - oz) * iz;
+        let near = max(max(tnx, tny), max(tnz, r.tmin));
+        let far = min(min(min(tfx, tfy), tfz), tmax) * EXIT_GROW;
+        tn[i] = near;
+        mask |= ((near <= far) as u32) << i;
     }
     mask
 }
 
-/// Closest hit in (tmin, tmax) as (leaf-order triangle, t, b1, b2); with `ANY`, the first hit
+/// Closest hit in (tmin, tmax) as (scene triangle, t, b1, b2); with `ANY`, the first hit
 /// found.
 #[inline(always)]
 pub(super) fn traverse<const ANY: bool>(
-    nodes: &[CwBvhNode],
-    tris: &[Tri],
+    bvh: &Bvh8,
     rn: &RayNode,
     rt: &RayTri,
     mut tmax: f32,
 ) -> Option<(u32, f32, f32, f32)> {
     let mut best: Option<(u32, f32, f32, f32)> = None;
-    let mut stack = [(0u32, 0u32); STACK];
+    // (child reference, entry distance), nearest on top.
+    let mut stack = [(0u32, 0f32); STACK];
     let mut sp = 0usize;
-    // (child base index, hit bits 24..32 | imask) and (primitive base index, primitive bits).
-    let mut group = (0u32, 0x8000_0000u32);
-    let mut prims = (0u32, 0u32);
+    let mut cur = 0u32;
     loop {
-        while prims.1 != 0 {
-            let local = 31 - prims.1.leading_zeros();
-            prims.1 &= !(1u32 << local);
-            let id = prims.0 + local;
-            if let Some((t, b1, b2)) = triangle::intersect(&tris[id as usize], rt, rn.tmin, tmax) {
-                best = Some((id, t, b1, b2));
+        if cur & LEAF != 0 {
+            let leaf = &bvh.leaves[(cur & !LEAF) as usize];
+            if let Some((lane, t, b1, b2)) = triangle::intersect4::<ANY>(leaf, rt, rn.tmin, tmax) {
+                best = Some((leaf.id[lane], t, b1, b2));
                 if ANY {
                     return best;
                 }
                 tmax = t;
             }
-        }
-        if group.1 & 0xff00_0000 != 0 {
-            let hits_imask = group.1;
-            let offset = 31 - hits_imask.leading_zeros();
-            group.1 &= !(1u32 << offset);
-            if group.1 & 0xff00_0000 != 0 {
-                stack[sp] = group;
-                sp += 1;
-            }
-            let slot = (offset - 24) ^ (rn.oct_inv4 & 0xff);
-            let relative = (hits_imask & !(0xffff_ffffu32 << slot)).count_ones();
-            let node = &nodes[(group.0 + relative) as usize];
-            let mask = node_hits(node, rn, tmax);
-            group = (
-                node.child_base_idx,
-                (mask & 0xff00_0000) | node.imask as u32,
-            );
-            prims = (node.primitive_base_idx, mask & 0x00ff_ffff);
-            prefetch_triangles(tris, prims);
         } else {
-            group = (0, 0);
+            let node = &bvh.nodes[cur as usize];
+            let mut tn = [0f32; 8];
+            let mut mask = node_hits(node, rn, tmax, &mut tn);
+            if mask != 0 {
+                // Push the children hit, then sort them (insertion sort, stable: ties keep
+                // slot order) so the nearest is on top, and descend into it.
+                let base = sp;
+                while mask != 0 {
+                    let i = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    let e = (node.child[i], tn[i]);
+                    let mut j = sp;
+                    while j > base && stack[j - 1].1 < e.1 {
+                        stack[j] = stack[j - 1];
+                        j -= 1;
+                    }
+                    stack[j] = e;
+                    sp += 1;
+                }
+                sp -= 1;
+                cur = stack[sp].0;
+                continue;
+            }
         }
-        if prims.1 == 0 && group.1 & 0xff00_0000 == 0 {
+        // Pop the nearest entry still in reach.
+        loop {
             if sp == 0 {
                 return best;
             }
             sp -= 1;
-            group = stack[sp];
-        }
-    }
-}
-
-/// Asks for the cache lines of all the triangles a node's leaves will test, before testing the
-/// first, so their misses overlap. Triangle and node loads are the hottest instructions in
-/// `perf` (the ray core is memory-bound at 100K and 1M triangles); measured a few percent,
-/// within the noise of the shared machine. Prefetching the child nodes hit as well measured
-/// nothing, so it is not done.
-#[inline(always)]
-fn prefetch_triangles(tris: &[Tri], prims: (u32, u32)) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        let mut bits = prims.1;
-        while bits != 0 {
-            let i = (prims.0 + bits.trailing_zeros()) as usize;
-            bits &= bits - 1;
-            if let Some(t) = tris.get(i) {
-                let p = t as *const Tri as *const i8;
-                // SAFETY: a prefetch only hints the cache and never faults; p and p + 32 lie
-                // inside the 48-byte triangle (its two cache lines at most).
-                unsafe {
-                    _mm_prefetch::<_MM_HINT_T0>(p);
-                    _mm_prefetch::<_MM_HINT_T0>(p.add(32));
-                }
+            let (c, t) = stack[sp];
+            if ANY || t <= tmax * EXIT_GROW {
+                cur = c;
+                break;
             }
         }
     }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = (tris, prims);
 }

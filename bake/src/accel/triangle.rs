@@ -13,10 +13,41 @@
 
 use glam::{Vec3, Vec3A};
 
-/// A triangle's vertices in BVH leaf order (48 bytes).
+/// One triangle's vertices, for the one-at-a-time test (brute force, tests).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Tri {
     pub v: [Vec3A; 3],
+}
+
+/// Up to four triangles of one BVH leaf, structure of arrays, tested at once by
+/// [`intersect4`]: `v[3 * vertex + axis][lane]`. Unused lanes hold NaN vertices, which never
+/// pass the test (their t is NaN). 160 bytes.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(32))]
+pub(super) struct Tri4 {
+    pub v: [[f32; 4]; 9],
+    /// Scene triangle index of each lane.
+    pub id: [u32; 4],
+}
+
+impl Tri4 {
+    /// The triangles `ids` (at most four) of `tris`.
+    pub fn new(ids: &[u32], tris: &[[Vec3A; 3]]) -> Tri4 {
+        debug_assert!(ids.len() <= 4);
+        let mut t = Tri4 {
+            v: [[f32::NAN; 4]; 9],
+            id: [u32::MAX; 4],
+        };
+        for (lane, &id) in ids.iter().enumerate().take(4) {
+            for (k, vertex) in tris[id as usize].iter().enumerate() {
+                for axis in 0..3 {
+                    t.v[3 * k + axis][lane] = vertex[axis];
+                }
+            }
+            t.id[lane] = id;
+        }
+        t
+    }
 }
 
 /// The per-ray constants of the test: origin, axis permutation and shear.
@@ -111,4 +142,95 @@ pub(super) fn intersect(tri: &Tri, r: &RayTri, tmin: f32, tmax: f32) -> Option<(
 #[inline(always)]
 fn pad(v: [f32; 3]) -> [f32; 4] {
     [v[0], v[1], v[2], 0.0]
+}
+
+/// [`intersect`] on the four lanes of a leaf at once, with the same operations in the same
+/// order per lane, so a lane's t and barycentrics are bit for bit those of [`intersect`] on
+/// its triangle. Closest hit (`ANY` false): the lane of least t (the lowest lane of equal
+/// ones) as (lane, t, b1, b2); `ANY`: the first lane that hits.
+#[inline(always)]
+pub(super) fn intersect4<const ANY: bool>(
+    tri: &Tri4,
+    r: &RayTri,
+    tmin: f32,
+    tmax: f32,
+) -> Option<(usize, f32, f32, f32)> {
+    let o = r.org.to_array();
+    // `% 3`/`& 3` let the compiler drop the bounds checks.
+    let (kx, ky, kz) = (r.kx % 3, r.ky % 3, r.kz % 3);
+    let sub = |vertex: usize, axis: usize| -> [f32; 4] {
+        let p = &tri.v[(3 * vertex + axis) % 9];
+        std::array::from_fn(|l| p[l] - o[axis])
+    };
+    // Vertex k translated (x, y along the permuted axes, z unsheared).
+    let mut xs = [[0.0f32; 4]; 3];
+    let mut ys = [[0.0f32; 4]; 3];
+    let mut zs = [[0.0f32; 4]; 3];
+    for k in 0..3 {
+        let (px, py, pz) = (sub(k, kx), sub(k, ky), sub(k, kz));
+        for l in 0..4 {
+            xs[k][l] = px[l] - r.sx * pz[l];
+            ys[k][l] = py[l] - r.sy * pz[l];
+        }
+        zs[k] = pz;
+    }
+    let ([ax, bx, cx], [ay, by, cy]) = (xs, ys);
+    let mut u = [0.0f32; 4];
+    let mut v = [0.0f32; 4];
+    let mut w = [0.0f32; 4];
+    let mut zero = false;
+    for l in 0..4 {
+        u[l] = cx[l] * by[l] - cy[l] * bx[l];
+        v[l] = ax[l] * cy[l] - ay[l] * cx[l];
+        w[l] = bx[l] * ay[l] - by[l] * ax[l];
+        zero |= (u[l] == 0.0) | (v[l] == 0.0) | (w[l] == 0.0);
+    }
+    if zero {
+        // On an edge in f32: decide in f64, as `intersect` does (rare, so not vectorized).
+        for l in 0..4 {
+            if u[l] == 0.0 || v[l] == 0.0 || w[l] == 0.0 {
+                let (ax, ay, bx, by, cx, cy) = (
+                    ax[l] as f64,
+                    ay[l] as f64,
+                    bx[l] as f64,
+                    by[l] as f64,
+                    cx[l] as f64,
+                    cy[l] as f64,
+                );
+                u[l] = (cx * by - cy * bx) as f32;
+                v[l] = (ax * cy - ay * cx) as f32;
+                w[l] = (bx * ay - by * ax) as f32;
+            }
+        }
+    }
+    let mut t = [0.0f32; 4];
+    let mut det = [0.0f32; 4];
+    let mut hit = 0u32;
+    for l in 0..4 {
+        let outside =
+            (u[l] < 0.0 || v[l] < 0.0 || w[l] < 0.0) && (u[l] > 0.0 || v[l] > 0.0 || w[l] > 0.0);
+        det[l] = u[l] + v[l] + w[l];
+        let t_scaled =
+            u[l] * (r.sz * zs[0][l]) + v[l] * (r.sz * zs[1][l]) + w[l] * (r.sz * zs[2][l]);
+        t[l] = t_scaled / det[l];
+        // `intersect`'s checks; written so a NaN fails (an |det| of inf or NaN is not < inf).
+        let ok =
+            !outside && det[l] != 0.0 && det[l].abs() < f32::INFINITY && t[l] > tmin && t[l] < tmax;
+        hit |= (ok as u32) << l;
+    }
+    if hit == 0 {
+        return None;
+    }
+    let mut best = hit.trailing_zeros() as usize;
+    if !ANY {
+        let mut rest = hit & (hit - 1);
+        while rest != 0 {
+            let l = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            if t[l] < t[best] {
+                best = l;
+            }
+        }
+    }
+    Some((best, t[best], v[best] / det[best], w[best] / det[best]))
 }
