@@ -5,9 +5,9 @@
 //! every node visit paid a dequantisation (u8 to float, scale, offset) and a bit-twiddling
 //! decode of the child order before the slab test. Here a node holds its eight child boxes as
 //! plain f32 in structure-of-arrays order (one 8-lane load per slab plane) and one reference
-//! per child; a leaf's up-to-3 triangles sit in one [`Tri4`] block tested at once. It costs
-//! memory (256 bytes per node instead of 80, 160 bytes per leaf instead of 48 per triangle),
-//! which the measurements in docs/compare.md weigh against the instructions saved.
+//! per child; a leaf's up-to-3 triangles sit together as nine rows (vertex, axis) of one value
+//! per triangle, tested at once ([`super::triangle::intersect4`]): 36 bytes per triangle plus
+//! its 4-byte id, against 48 before. Nodes cost more memory (256 bytes instead of 80).
 //!
 //! Conservative boxes: each dequantised CWBVH box grows by 1/64 of its grid cell on every side
 //! (computed exactly in f64, then rounded outwards to f32), more than the rounding of the slab
@@ -16,10 +16,12 @@
 
 use obvhs::cwbvh::{node::CwBvhNode, CwBvh};
 
-use super::triangle::Tri4;
-
-/// Child reference of a leaf: this bit | index into `Bvh8::leaves`.
+/// Child reference of a leaf: this bit | (triangles - 1) << `LEAF_COUNT_SHIFT` | index of its
+/// first triangle in `Bvh8::ids` (its rows start at 9 times that in `Bvh8::rows`).
 pub(super) const LEAF: u32 = 0x8000_0000;
+pub(super) const LEAF_COUNT_SHIFT: u32 = 29;
+/// Leaf triangle indices must stay below this (2^29, about 537M triangle references).
+const LEAF_INDEX_LIMIT: usize = 1 << LEAF_COUNT_SHIFT;
 /// Child reference of an empty slot (its box is empty, so it is never hit).
 pub(super) const EMPTY: u32 = u32::MAX;
 /// Child boxes grow by this many quantization cells on each side.
@@ -41,24 +43,51 @@ pub(super) struct Node {
 #[derive(Debug, Default)]
 pub(super) struct Bvh8 {
     pub nodes: Vec<Node>,
-    pub leaves: Vec<Tri4>,
+    /// The leaves' coordinates (see `LEAF`), then 4 zeros so a four-lane load of a leaf's
+    /// last row never reads past the end.
+    pub rows: Vec<f32>,
+    /// Scene triangle index of each leaf triangle, in leaf order.
+    pub ids: Vec<u32>,
 }
 
 impl Bvh8 {
     /// Converts obvhs' CWBVH over `tris` (scene triangles, indexed by its primitive indices);
     /// node i here is CWBVH node i.
+    ///
+    /// Panics past 2^29 triangle references (a scene far beyond what fits in memory here).
     pub fn from_cwbvh(bvh: &CwBvh, tris: &[[glam::Vec3A; 3]]) -> Bvh8 {
-        let mut leaves = Vec::new();
-        let nodes = bvh
-            .nodes
-            .iter()
-            .map(|n| convert(n, bvh, tris, &mut leaves))
-            .collect();
-        Bvh8 { nodes, leaves }
+        assert!(
+            bvh.primitive_indices.len() < LEAF_INDEX_LIMIT,
+            "too many triangles for the BVH's leaf references"
+        );
+        let mut out = Bvh8 {
+            nodes: Vec::with_capacity(bvh.nodes.len()),
+            rows: Vec::with_capacity(9 * bvh.primitive_indices.len() + 4),
+            ids: Vec::with_capacity(bvh.primitive_indices.len()),
+        };
+        for n in &bvh.nodes {
+            let node = convert(n, bvh, tris, &mut out);
+            out.nodes.push(node);
+        }
+        out.rows.extend([0.0; 4]);
+        out
+    }
+
+    /// Appends a leaf of the triangles `ids`; returns its child reference.
+    fn push_leaf(&mut self, ids: &[u32], tris: &[[glam::Vec3A; 3]]) -> u32 {
+        let first = self.ids.len() as u32;
+        for k in 0..3 {
+            for axis in 0..3 {
+                self.rows
+                    .extend(ids.iter().map(|&i| tris[i as usize][k][axis]));
+            }
+        }
+        self.ids.extend_from_slice(ids);
+        LEAF | ((ids.len() as u32 - 1) << LEAF_COUNT_SHIFT) | first
     }
 }
 
-fn convert(n: &CwBvhNode, bvh: &CwBvh, tris: &[[glam::Vec3A; 3]], leaves: &mut Vec<Tri4>) -> Node {
+fn convert(n: &CwBvhNode, bvh: &CwBvh, tris: &[[glam::Vec3A; 3]], out: &mut Bvh8) -> Node {
     let mut node = Node {
         bounds: [
             [f32::INFINITY; 8],
@@ -97,8 +126,7 @@ fn convert(n: &CwBvhNode, bvh: &CwBvh, tris: &[[glam::Vec3A; 3]], leaves: &mut V
         node.child[i] = if n.is_leaf(i) {
             let (start, count) = n.child_primitives(i);
             let ids = &bvh.primitive_indices[start as usize..(start + count) as usize];
-            leaves.push(Tri4::new(ids, tris));
-            LEAF | (leaves.len() - 1) as u32
+            out.push_leaf(ids, tris)
         } else {
             n.child_node_index(i)
         };

@@ -123,7 +123,8 @@ impl Accel {
             return unsafe { traverse_avx2::<ANY>(&self.bvh, &rn, &rt, tmax) };
         }
         let _ = avx2;
-        traverse::traverse::<ANY>(&self.bvh, &rn, &rt, tmax)
+        // SAFETY: the portable node test needs no CPU feature.
+        unsafe { traverse::traverse::<ANY, traverse::Portable>(&self.bvh, &rn, &rt, tmax) }
     }
 }
 
@@ -138,8 +139,9 @@ fn detect_avx2() -> bool {
     }
 }
 
-/// The same traversal compiled for AVX2: the node test's eight lanes become one 256-bit
-/// vector. No FMA is enabled, so the arithmetic (and every answer) equals the portable path's.
+/// The same traversal compiled for AVX2, with the node test's eight lanes as one 256-bit vector
+/// (`traverse::Avx2`). No FMA is used, so the arithmetic (and every answer) equals the
+/// portable path's.
 ///
 /// # Safety
 /// The CPU must support AVX2.
@@ -151,7 +153,7 @@ unsafe fn traverse_avx2<const ANY: bool>(
     rt: &RayTri,
     tmax: f32,
 ) -> Option<(u32, f32, f32, f32)> {
-    traverse::traverse::<ANY>(bvh, rn, rt, tmax)
+    traverse::traverse::<ANY, traverse::Avx2>(bvh, rn, rt, tmax)
 }
 
 /// Brute-force closest hit over all triangles (the first of equal distances), with the same

@@ -11,43 +11,12 @@
 //! signs agree exactly (an exact zero is recomputed in f64). A point on an edge is inside one
 //! of the two triangles, or both.
 
-use glam::{Vec3, Vec3A};
+use glam::{Vec3, Vec3A, Vec4};
 
 /// One triangle's vertices, for the one-at-a-time test (brute force, tests).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Tri {
     pub v: [Vec3A; 3],
-}
-
-/// Up to four triangles of one BVH leaf, structure of arrays, tested at once by
-/// [`intersect4`]: `v[3 * vertex + axis][lane]`. Unused lanes hold NaN vertices, which never
-/// pass the test (their t is NaN). 160 bytes.
-#[derive(Clone, Copy, Debug)]
-#[repr(C, align(32))]
-pub(super) struct Tri4 {
-    pub v: [[f32; 4]; 9],
-    /// Scene triangle index of each lane.
-    pub id: [u32; 4],
-}
-
-impl Tri4 {
-    /// The triangles `ids` (at most four) of `tris`.
-    pub fn new(ids: &[u32], tris: &[[Vec3A; 3]]) -> Tri4 {
-        debug_assert!(ids.len() <= 4);
-        let mut t = Tri4 {
-            v: [[f32::NAN; 4]; 9],
-            id: [u32::MAX; 4],
-        };
-        for (lane, &id) in ids.iter().enumerate().take(4) {
-            for (k, vertex) in tris[id as usize].iter().enumerate() {
-                for axis in 0..3 {
-                    t.v[3 * k + axis][lane] = vertex[axis];
-                }
-            }
-            t.id[lane] = id;
-        }
-        t
-    }
 }
 
 /// The per-ray constants of the test: origin, axis permutation and shear.
@@ -144,83 +113,85 @@ fn pad(v: [f32; 3]) -> [f32; 4] {
     [v[0], v[1], v[2], 0.0]
 }
 
-/// [`intersect`] on the four lanes of a leaf at once, with the same operations in the same
-/// order per lane, so a lane's t and barycentrics are bit for bit those of [`intersect`] on
-/// its triangle. Closest hit (`ANY` false): the lane of least t (the lowest lane of equal
-/// ones) as (lane, t, b1, b2); `ANY`: the first lane that hits.
+/// [`intersect`] on the `n` (1 to 4) triangles of a leaf at once, four lanes, with the same
+/// operations in the same order per lane, so a lane's t and barycentrics are bit for bit those
+/// of [`intersect`] on its triangle. `rows` holds the leaf's coordinates as nine rows of `n`
+/// (row 3 * vertex + axis, lane = triangle) and at least 4 - n more values, which fill the
+/// unused lanes and are ignored. Closest hit (`ANY` false): the lane of least t (the lowest
+/// lane of equal ones) as (lane, t, b1, b2); `ANY`: the first lane that hits.
 #[inline(always)]
 pub(super) fn intersect4<const ANY: bool>(
-    tri: &Tri4,
+    rows: &[f32],
+    n: usize,
     r: &RayTri,
     tmin: f32,
     tmax: f32,
 ) -> Option<(usize, f32, f32, f32)> {
     let o = r.org.to_array();
-    // `% 3`/`& 3` let the compiler drop the bounds checks.
+    // `% 3` lets the compiler drop the bounds checks of `o`.
     let (kx, ky, kz) = (r.kx % 3, r.ky % 3, r.kz % 3);
-    let sub = |vertex: usize, axis: usize| -> [f32; 4] {
-        let p = &tri.v[(3 * vertex + axis) % 9];
-        std::array::from_fn(|l| p[l] - o[axis])
+    let row = |vertex: usize, axis: usize| {
+        let at = (3 * vertex + axis) * n;
+        Vec4::from_slice(&rows[at..at + 4]) - Vec4::splat(o[axis])
     };
-    // Vertex k translated (x, y along the permuted axes, z unsheared).
-    let mut xs = [[0.0f32; 4]; 3];
-    let mut ys = [[0.0f32; 4]; 3];
-    let mut zs = [[0.0f32; 4]; 3];
-    for k in 0..3 {
-        let (px, py, pz) = (sub(k, kx), sub(k, ky), sub(k, kz));
-        for l in 0..4 {
-            xs[k][l] = px[l] - r.sx * pz[l];
-            ys[k][l] = py[l] - r.sy * pz[l];
+    let (sx, sy, sz) = (Vec4::splat(r.sx), Vec4::splat(r.sy), Vec4::splat(r.sz));
+    // Vertex k translated, sheared along the permuted x and y; its z unsheared.
+    let (pz0, pz1, pz2) = (row(0, kz), row(1, kz), row(2, kz));
+    let ax = row(0, kx) - sx * pz0;
+    let ay = row(0, ky) - sy * pz0;
+    let bx = row(1, kx) - sx * pz1;
+    let by = row(1, ky) - sy * pz1;
+    let cx = row(2, kx) - sx * pz2;
+    let cy = row(2, ky) - sy * pz2;
+    let mut u = cx * by - cy * bx;
+    let mut v = ax * cy - ay * cx;
+    let mut w = bx * ay - by * ax;
+    let lanes = (1u32 << n) - 1;
+    let zero = Vec4::ZERO;
+    let on_edge = (u.cmpeq(zero) | v.cmpeq(zero) | w.cmpeq(zero)).bitmask() & lanes;
+    if on_edge != 0 {
+        // On an edge in f32: decide in f64, as `intersect` does (rare, so lane by lane).
+        let (mut uu, mut vv, mut ww) = (u.to_array(), v.to_array(), w.to_array());
+        let (ax, ay, bx, by, cx, cy) = (
+            ax.to_array(),
+            ay.to_array(),
+            bx.to_array(),
+            by.to_array(),
+            cx.to_array(),
+            cy.to_array(),
+        );
+        let mut m = on_edge;
+        while m != 0 {
+            let l = m.trailing_zeros() as usize;
+            m &= m - 1;
+            let (ax, ay, bx, by, cx, cy) = (
+                ax[l] as f64,
+                ay[l] as f64,
+                bx[l] as f64,
+                by[l] as f64,
+                cx[l] as f64,
+                cy[l] as f64,
+            );
+            uu[l] = (cx * by - cy * bx) as f32;
+            vv[l] = (ax * cy - ay * cx) as f32;
+            ww[l] = (bx * ay - by * ax) as f32;
         }
-        zs[k] = pz;
+        (u, v, w) = (Vec4::from(uu), Vec4::from(vv), Vec4::from(ww));
     }
-    let ([ax, bx, cx], [ay, by, cy]) = (xs, ys);
-    let mut u = [0.0f32; 4];
-    let mut v = [0.0f32; 4];
-    let mut w = [0.0f32; 4];
-    let mut zero = false;
-    for l in 0..4 {
-        u[l] = cx[l] * by[l] - cy[l] * bx[l];
-        v[l] = ax[l] * cy[l] - ay[l] * cx[l];
-        w[l] = bx[l] * ay[l] - by[l] * ax[l];
-        zero |= (u[l] == 0.0) | (v[l] == 0.0) | (w[l] == 0.0);
-    }
-    if zero {
-        // On an edge in f32: decide in f64, as `intersect` does (rare, so not vectorized).
-        for l in 0..4 {
-            if u[l] == 0.0 || v[l] == 0.0 || w[l] == 0.0 {
-                let (ax, ay, bx, by, cx, cy) = (
-                    ax[l] as f64,
-                    ay[l] as f64,
-                    bx[l] as f64,
-                    by[l] as f64,
-                    cx[l] as f64,
-                    cy[l] as f64,
-                );
-                u[l] = (cx * by - cy * bx) as f32;
-                v[l] = (ax * cy - ay * cx) as f32;
-                w[l] = (bx * ay - by * ax) as f32;
-            }
-        }
-    }
-    let mut t = [0.0f32; 4];
-    let mut det = [0.0f32; 4];
-    let mut hit = 0u32;
-    for l in 0..4 {
-        let outside =
-            (u[l] < 0.0 || v[l] < 0.0 || w[l] < 0.0) && (u[l] > 0.0 || v[l] > 0.0 || w[l] > 0.0);
-        det[l] = u[l] + v[l] + w[l];
-        let t_scaled =
-            u[l] * (r.sz * zs[0][l]) + v[l] * (r.sz * zs[1][l]) + w[l] * (r.sz * zs[2][l]);
-        t[l] = t_scaled / det[l];
-        // `intersect`'s checks; written so a NaN fails (an |det| of inf or NaN is not < inf).
-        let ok =
-            !outside && det[l] != 0.0 && det[l].abs() < f32::INFINITY && t[l] > tmin && t[l] < tmax;
-        hit |= (ok as u32) << l;
-    }
+    let negative = u.cmplt(zero) | v.cmplt(zero) | w.cmplt(zero);
+    let positive = u.cmpgt(zero) | v.cmpgt(zero) | w.cmpgt(zero);
+    let det = u + v + w;
+    let t = (u * (sz * pz0) + v * (sz * pz1) + w * (sz * pz2)) / det;
+    // `intersect`'s checks; written so a NaN fails (an |det| of inf or NaN is not < inf).
+    let ok = det.cmpne(zero)
+        & det.abs().cmplt(Vec4::INFINITY)
+        & t.cmpgt(Vec4::splat(tmin))
+        & t.cmplt(Vec4::splat(tmax));
+    let hit = ok.bitmask() & !(negative & positive).bitmask() & lanes;
     if hit == 0 {
         return None;
     }
+    let (t, det, v, w) = (t.to_array(), det.to_array(), v.to_array(), w.to_array());
     let mut best = hit.trailing_zeros() as usize;
     if !ANY {
         let mut rest = hit & (hit - 1);
