@@ -23,6 +23,8 @@ pub(super) struct Tri {
 #[derive(Clone, Copy, Debug)]
 pub(super) struct RayTri {
     org: Vec3A,
+    /// The origin's coordinates along kx, ky, kz.
+    org_k: [f32; 3],
     kx: usize,
     ky: usize,
     kz: usize,
@@ -54,6 +56,7 @@ impl RayTri {
         }
         RayTri {
             org: origin.into(),
+            org_k: [origin[kx], origin[ky], origin[kz]],
             kx,
             ky,
             kz,
@@ -127,22 +130,21 @@ pub(super) fn intersect4<const ANY: bool>(
     tmin: f32,
     tmax: f32,
 ) -> Option<(usize, f32, f32, f32)> {
-    let o = r.org.to_array();
-    // `% 3` lets the compiler drop the bounds checks of `o`.
-    let (kx, ky, kz) = (r.kx % 3, r.ky % 3, r.kz % 3);
-    let row = |vertex: usize, axis: usize| {
+    let (kx, ky, kz) = (r.kx, r.ky, r.kz);
+    let [okx, oky, okz] = r.org_k;
+    let row = |vertex: usize, axis: usize, o: f32| {
         let at = (3 * vertex + axis) * n;
-        Vec4::from_slice(&rows[at..at + 4]) - Vec4::splat(o[axis])
+        Vec4::from_slice(&rows[at..at + 4]) - Vec4::splat(o)
     };
     let (sx, sy, sz) = (Vec4::splat(r.sx), Vec4::splat(r.sy), Vec4::splat(r.sz));
     // Vertex k translated, sheared along the permuted x and y; its z unsheared.
-    let (pz0, pz1, pz2) = (row(0, kz), row(1, kz), row(2, kz));
-    let ax = row(0, kx) - sx * pz0;
-    let ay = row(0, ky) - sy * pz0;
-    let bx = row(1, kx) - sx * pz1;
-    let by = row(1, ky) - sy * pz1;
-    let cx = row(2, kx) - sx * pz2;
-    let cy = row(2, ky) - sy * pz2;
+    let (pz0, pz1, pz2) = (row(0, kz, okz), row(1, kz, okz), row(2, kz, okz));
+    let ax = row(0, kx, okx) - sx * pz0;
+    let ay = row(0, ky, oky) - sy * pz0;
+    let bx = row(1, kx, okx) - sx * pz1;
+    let by = row(1, ky, oky) - sy * pz1;
+    let cx = row(2, kx, okx) - sx * pz2;
+    let cy = row(2, ky, oky) - sy * pz2;
     let mut u = cx * by - cy * bx;
     let mut v = ax * cy - ay * cx;
     let mut w = bx * ay - by * ax;
