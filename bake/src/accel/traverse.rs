@@ -211,6 +211,9 @@ pub(super) unsafe fn traverse<const ANY: bool, T: NodeTest>(
             }
         } else {
             let node = &bvh.nodes[cur as usize];
+            // The child references are the node's last cache line, read only after the box
+            // test: ask for it now so its miss overlaps the box rows'.
+            prefetch(node.child.as_ptr() as *const u8);
             let mut tn = [0f32; 8];
             let mut mask = T::hits(node, rn, tmax, &mut tn);
             if mask != 0 {
@@ -238,6 +241,11 @@ pub(super) unsafe fn traverse<const ANY: bool, T: NodeTest>(
                 sp -= 1;
                 // SAFETY: sp < the count written.
                 cur = unsafe { stack[sp % STACK].assume_init() }.0;
+                // The others are visited later: start loading them now.
+                for k in base..sp {
+                    // SAFETY: base <= k < sp: written above.
+                    prefetch_child(bvh, unsafe { stack[k % STACK].assume_init() }.0);
+                }
                 continue;
             }
         }
@@ -255,4 +263,31 @@ pub(super) unsafe fn traverse<const ANY: bool, T: NodeTest>(
             }
         }
     }
+}
+
+/// Asks for the first cache lines of a child: a node's box rows, or a leaf's coordinates.
+#[inline(always)]
+fn prefetch_child(bvh: &Bvh8, child: u32) {
+    let p = if child & LEAF != 0 {
+        let first = (child & ((1 << LEAF_COUNT_SHIFT) - 1)) as usize;
+        bvh.rows.as_ptr().wrapping_add(9 * first) as *const u8
+    } else {
+        bvh.nodes.as_ptr().wrapping_add(child as usize) as *const u8
+    };
+    prefetch(p);
+    prefetch(p.wrapping_add(64));
+    prefetch(p.wrapping_add(128));
+}
+
+/// A cache hint; it never faults, whatever the address.
+#[inline(always)]
+fn prefetch(p: *const u8) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch only hints the cache and never faults.
+    unsafe {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        _mm_prefetch::<_MM_HINT_T0>(p as *const i8);
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = p;
 }
