@@ -76,11 +76,11 @@ impl Bvh8 {
     /// Appends a leaf of the triangles `ids`; returns its child reference.
     fn push_leaf(&mut self, ids: &[u32], tris: &[[glam::Vec3A; 3]]) -> u32 {
         let first = self.ids.len() as u32;
-        for k in 0..3 {
-            for axis in 0..3 {
-                self.rows
-                    .extend(ids.iter().map(|&i| tris[i as usize][k][axis]));
-            }
+        // Row 3 * vertex + axis: that coordinate of each triangle.
+        for row in 0..9 {
+            let (k, axis) = (row / 3, row % 3);
+            self.rows
+                .extend(ids.iter().map(|&i| tris[i as usize][k][axis]));
         }
         self.ids.extend_from_slice(ids);
         LEAF | ((ids.len() as u32 - 1) << LEAF_COUNT_SHIFT) | first

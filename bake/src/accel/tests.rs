@@ -378,7 +378,11 @@ fn four_lane_leaf_test_equals_the_one_triangle_test() {
             1 => a + (b - a) * rng.next_f32(),
             _ => {
                 let (u, v) = (rng.next_f32(), rng.next_f32());
-                let (u, v) = if u + v > 1.0 { (1.0 - u, 1.0 - v) } else { (u, v) };
+                let (u, v) = if u + v > 1.0 {
+                    (1.0 - u, 1.0 - v)
+                } else {
+                    (u, v)
+                };
                 a + (b - a) * u + (c - a) * v
             }
         };
@@ -407,5 +411,8 @@ fn four_lane_leaf_test_equals_the_one_triangle_test() {
         hits += expect.is_some() as usize;
         edges += (case % 4 < 2) as usize;
     }
-    assert!(hits > 8000 && edges > 8000, "{hits} hits, {edges} edge rays");
+    assert!(
+        hits > 8000 && edges > 8000,
+        "{hits} hits, {edges} edge rays"
+    );
 }
