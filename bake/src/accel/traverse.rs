@@ -198,16 +198,12 @@ pub(super) unsafe fn traverse<const ANY: bool, T: NodeTest>(
     let mut cur = 0u32;
     loop {
         if cur & LEAF != 0 {
-            let first = (cur & ((1 << LEAF_COUNT_SHIFT) - 1)) as usize;
-            let n = ((cur & !LEAF) >> LEAF_COUNT_SHIFT) as usize + 1;
-            let rows = &bvh.rows[9 * first..];
-            if let Some((lane, t, b1, b2)) = triangle::intersect4::<ANY>(rows, n, rt, rn.tmin, tmax)
-            {
-                best = Some((bvh.ids[first + lane], t, b1, b2));
+            if let Some(hit) = leaf::<ANY>(bvh, cur, rt, rn.tmin, tmax) {
+                best = Some(hit);
                 if ANY {
                     return best;
                 }
-                tmax = t;
+                tmax = hit.1;
             }
         } else {
             let node = &bvh.nodes[cur as usize];
@@ -216,17 +212,45 @@ pub(super) unsafe fn traverse<const ANY: bool, T: NodeTest>(
             prefetch(node.child.as_ptr() as *const u8);
             let mut tn = [0f32; 8];
             let mut mask = T::hits(node, rn, tmax, &mut tn);
-            if mask != 0 {
+            if mask != 0 && mask & (mask - 1) == 0 {
+                // One child hit: descend, nothing to push.
+                cur = node.child[mask.trailing_zeros() as usize & 7];
+                continue;
+            }
+            if ANY && mask != 0 {
+                // Occlusion: test the leaves hit now (a hit ends the query), push the inner
+                // children unsorted, and descend into the last.
+                let base = sp;
+                while mask != 0 {
+                    let i = mask.trailing_zeros() as usize & 7;
+                    mask &= mask - 1;
+                    let c = node.child[i];
+                    if c & LEAF != 0 {
+                        if let Some(hit) = leaf::<ANY>(bvh, c, rt, rn.tmin, tmax) {
+                            return Some(hit);
+                        }
+                    } else {
+                        prefetch_child(bvh, c);
+                        stack[sp % STACK].write((c, tn[i]));
+                        sp += 1;
+                    }
+                }
+                if sp > base {
+                    sp -= 1;
+                    // SAFETY: sp < the count written.
+                    cur = unsafe { stack[sp % STACK].assume_init() }.0;
+                    continue;
+                }
+            } else if mask != 0 {
                 // Push the children hit, sorted (insertion sort, stable: ties keep slot order)
-                // so the nearest is on top, and descend into it. Occlusion skips the sort: any
-                // hit ends it, and the sort measured slower than it saves.
+                // so the nearest is on top, and descend into it.
                 let base = sp;
                 while mask != 0 {
                     let i = mask.trailing_zeros() as usize & 7;
                     mask &= mask - 1;
                     let e = (node.child[i], tn[i]);
                     let mut j = sp;
-                    while !ANY && j > base {
+                    while j > base {
                         // SAFETY: base <= j - 1 < sp: written above.
                         let below = unsafe { stack[(j - 1) % STACK].assume_init() };
                         if below.1 >= e.1 {
@@ -263,6 +287,21 @@ pub(super) unsafe fn traverse<const ANY: bool, T: NodeTest>(
             }
         }
     }
+}
+
+/// The triangle test of leaf `child` (a `LEAF` reference): (scene triangle, t, b1, b2).
+#[inline(always)]
+fn leaf<const ANY: bool>(
+    bvh: &Bvh8,
+    child: u32,
+    rt: &RayTri,
+    tmin: f32,
+    tmax: f32,
+) -> Option<(u32, f32, f32, f32)> {
+    let first = (child & ((1 << LEAF_COUNT_SHIFT) - 1)) as usize;
+    let n = ((child & !LEAF) >> LEAF_COUNT_SHIFT) as usize + 1;
+    let (lane, t, b1, b2) = triangle::intersect4::<ANY>(&bvh.rows[9 * first..], n, rt, tmin, tmax)?;
+    Some((bvh.ids[first + lane], t, b1, b2))
 }
 
 /// Asks for the first cache lines of a child: a node's box rows, or a leaf's coordinates.
