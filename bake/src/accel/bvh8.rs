@@ -10,7 +10,7 @@
 //! its 4-byte id, against 48 before. Nodes cost more memory (256 bytes instead of 80).
 //!
 //! Conservative boxes: each dequantised CWBVH box grows by 1/64 of its grid cell on every side
-//! (computed exactly in f64, then rounded outwards to f32), more than the rounding of the slab
+//! (computed in f64, then rounded outwards to f32), more than the rounding of the slab
 //! distances and of the triangle test's t, so a triangle lying in a box face (axis-aligned
 //! walls: zero-thickness boxes) is never culled by a rounding; see `traverse`.
 
@@ -34,7 +34,7 @@ pub(super) struct Node {
     /// Child boxes in structure-of-arrays order: rows lo x, hi x, lo y, hi y, lo z, hi z; an
     /// empty slot has lo = +inf and hi = -inf.
     pub bounds: [[f32; 8]; 6],
-    /// Inner child: node index; leaf: `LEAF` | leaf index; empty slot: `EMPTY`.
+    /// Inner child: node index; leaf: a `LEAF` reference; empty slot: `EMPTY`.
     pub child: [u32; 8],
     _pad: [u32; 8],
 }
@@ -116,7 +116,7 @@ fn convert(n: &CwBvhNode, bvh: &CwBvh, tris: &[[glam::Vec3A; 3]], out: &mut Bvh8
             continue;
         }
         for axis in 0..3 {
-            // p + e q is exact in f64 (e is a power of two, q < 256); the pad too.
+            // In f64 (e is a power of two, q < 256: e (q -+ pad) is exact), then rounded outwards.
             let (e, p) = (e[axis] as f64, p[axis] as f64);
             let lo = p + e * (q[axis].0[i] as f64 - BOX_PAD);
             let hi = p + e * (q[axis].1[i] as f64 + BOX_PAD);

@@ -1,7 +1,9 @@
 //! Traversal of our BVH8 ([`super::bvh8`]): all eight child boxes of a node against the ray at
-//! once, in lanes the compiler vectorizes (8-wide with AVX2, 2 x 4 with the SSE2 baseline; see
-//! `Accel`'s dispatch in `mod.rs`), children visited nearest first, a leaf's triangles tested
-//! four at once ([`triangle::intersect4`]).
+//! once ([`NodeTest`]: one 256-bit vector with AVX2, else eight lanes the compiler vectorizes;
+//! see `Accel`'s dispatch in `mod.rs`), a leaf's triangles tested four at once
+//! ([`triangle::intersect4`]). Closest hit visits the children hit nearest first (sorted by
+//! entry distance); occlusion tests the leaves hit at once and pushes the inner children
+//! unsorted (sorting measured slower there: any hit ends the query).
 //!
 //! The node test is conservative in floating point: the boxes are already grown by 1/64 of
 //! their CWBVH grid cell ([`super::bvh8`]), and the exit distance, after clamping to the ray's
