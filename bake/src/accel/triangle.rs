@@ -50,19 +50,21 @@ impl RayTri {
         };
         let mut kx = (kz + 1) % 3;
         let mut ky = (kx + 1) % 3;
+        // Arrays: glam's `Vec3` indexing is a `match`, measurably slower per ray.
+        let (d, o) = (dir.to_array(), origin.to_array());
         // Keep the winding: swapping x and y when the ray points down z.
-        if dir[kz] < 0.0 {
+        if d[kz] < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
         }
         RayTri {
             org: origin.into(),
-            org_k: [origin[kx], origin[ky], origin[kz]],
+            org_k: [o[kx], o[ky], o[kz]],
             kx,
             ky,
             kz,
-            sx: dir[kx] / dir[kz],
-            sy: dir[ky] / dir[kz],
-            sz: 1.0 / dir[kz],
+            sx: d[kx] / d[kz],
+            sy: d[ky] / d[kz],
+            sz: 1.0 / d[kz],
         }
     }
 }
@@ -132,9 +134,14 @@ pub(super) fn intersect4<const ANY: bool>(
 ) -> Option<(usize, f32, f32, f32)> {
     let (kx, ky, kz) = (r.kx, r.ky, r.kz);
     let [okx, oky, okz] = r.org_k;
+    // One bounds check for the whole leaf: its nine rows of n and the lanes past them.
+    let rows = &rows[..8 * n + 4];
     let row = |vertex: usize, axis: usize, o: f32| {
         let at = (3 * vertex + axis) * n;
-        Vec4::from_slice(&rows[at..at + 4]) - Vec4::splat(o)
+        debug_assert!(vertex < 3 && axis < 3);
+        // SAFETY: vertex < 3 and axis < 3 (`RayTri::new` makes kx, ky, kz so), hence
+        // at <= 8 n and at + 4 <= 8 n + 4 = rows.len().
+        Vec4::from_slice(unsafe { rows.get_unchecked(at..at + 4) }) - Vec4::splat(o)
     };
     let (sx, sy, sz) = (Vec4::splat(r.sx), Vec4::splat(r.sy), Vec4::splat(r.sz));
     // Vertex k translated, sheared along the permuted x and y; its z unsheared.
