@@ -363,32 +363,41 @@ def ray_comparison(args, report):
         ours_occ = np.fromfile(f["occluded"], "u1")
         emb = Embree(tris, args.embree_robust)
         agree = agreement(emb, origins, dirs, ours_t, ours_tri, ours_occ)
-        ours = Ours(bench, folder, name)
+        tracers = {"ours": Ours(bench, folder, name)}
+        if args.bin_before:
+            tracers["before"] = Ours(os.path.join(args.bin_before, "bench"), folder, name)
         keys = [(q, t) for q in ("closest", "occlusion")
                 for t in sorted({1, threads_all})]
-        times = {k: dict(ours=[], embree=[]) for k in keys}
+        times = {k: dict(ours=[], embree=[], before=[]) for k in keys}
         checks = {}
+        sides = list(tracers) + ["embree"]
         for rnd in range(args.rounds):
-            for side in (("ours", "embree") if rnd % 2 == 0 else ("embree", "ours")):
-                if side == "ours":
-                    res = ours.round()
+            for side in (sides if rnd % 2 == 0 else sides[::-1]):
+                if side != "embree":
+                    res = tracers[side].round()
                     for k in keys:
-                        times[k]["ours"].append(res[k]["seconds"])
-                        checks[(k, "ours")] = res[k]["checksum"]
+                        times[k][side].append(res[k]["seconds"])
+                        checks[(k, side)] = res[k]["checksum"]
                 else:
                     for k in keys:
                         res = emb.pass_(origins, dirs, k[0], k[1], pool)
                         times[k]["embree"].append(res["seconds"])
                         checks[(k, "embree")] = res["checksum"]
-        ours.close()
+        for t in tracers.values():
+            t.close()
         n = len(rays)
         rows = []
         for k in keys:
             to, te = median(times[k]["ours"]), median(times[k]["embree"])
-            print("  %-8s %9d %-10s %7d %13.2f %15.2f %11.2fx" % (
-                name, m["triangles"], k[0], k[1], n / to / 1e6, n / te / 1e6, te / to))
+            before = ""
+            if args.bin_before:
+                tb = median(times[k]["before"])
+                before = "   before: %.2f Mrays/s, %.2fx Embree" % (n / tb / 1e6, te / tb)
+            print("  %-8s %9d %-10s %7d %13.2f %15.2f %11.2fx%s" % (
+                name, m["triangles"], k[0], k[1], n / to / 1e6, n / te / 1e6, te / to, before))
             rows.append(dict(query=k[0], threads=k[1], ours_s=times[k]["ours"],
                              embree_s=times[k]["embree"], ratio=te / to,
+                             before_s=times[k]["before"],
                              ours_checksum=checks[(k, "ours")],
                              embree_checksum=checks[(k, "embree")]))
         # Our timed passes must have found exactly the dumped hits (same code, same rays).
@@ -420,6 +429,8 @@ def main():
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--bin", default=os.path.join(ROOT, "target", "release"),
                     help="folder of the bake, relight, reference and bench binaries")
+    ap.add_argument("--bin-before", help="folder of another `bench` binary (e.g. built from an "
+                    "earlier commit) timed in the same interleaved rounds as ours and Embree")
     ap.add_argument("--work", default=os.path.join(ROOT, "target", "compare"),
                     help="scratch folder: renders, the cached ground truth, ray dumps")
     ap.add_argument("--quick", action="store_true",

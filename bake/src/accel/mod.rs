@@ -1,27 +1,25 @@
-//! Ray queries over all scene triangles. obvhs builds the BVH (a compressed wide BVH8, CWBVH);
-//! traversal ([`traverse`]) and the triangle test ([`triangle`]) are ours, because the ray core
-//! must be watertight and as fast as Embree, and obvhs' traversal is neither (see those
-//! modules). Triangles are copied into BVH leaf order at build, so a leaf's triangles are
-//! contiguous in memory.
+//! Ray queries over all scene triangles. obvhs builds the BVH (a compressed wide BVH8, CWBVH),
+//! which we decompress into our own layout ([`bvh8`]: float child boxes, each leaf's triangles
+//! in one four-lane block); traversal ([`traverse`]) and the triangle test ([`triangle`]) are
+//! ours, because the ray core must be watertight and as fast as Embree, and obvhs' traversal
+//! is neither (see those modules).
 //!
 //! Answers are deterministic: one ray's hit (triangle, t, barycentrics) depends only on the
 //! ray and the scene, not on the thread or on the SIMD path taken (AVX2 when the CPU has it,
 //! else the portable code; the same operations, so the same results bit for bit).
 
+mod bvh8;
 mod traverse;
 mod triangle;
 
 #[cfg(test)]
 mod tests;
 
-use glam::{Vec2, Vec3};
-use obvhs::{
-    cwbvh::{builder::build_cwbvh_from_tris, CwBvh},
-    triangle::Triangle,
-    BvhBuildParams,
-};
+use glam::{Vec2, Vec3, Vec3A};
+use obvhs::{cwbvh::builder::build_cwbvh_from_tris, triangle::Triangle, BvhBuildParams};
 
 use crate::scene::Scene;
+use bvh8::Bvh8;
 use traverse::RayNode;
 use triangle::{RayTri, Tri};
 
@@ -35,11 +33,9 @@ pub struct Hit {
 }
 
 pub struct Accel {
-    bvh: CwBvh,
-    /// Triangles in BVH leaf order: the BVH's primitive ids index them directly.
-    tris: Vec<Tri>,
-    /// Scene triangle index of each leaf-order triangle.
-    original: Vec<u32>,
+    bvh: Bvh8,
+    /// Triangles referenced by the leaves (spatial splits may repeat one).
+    references: usize,
     /// Take the AVX2 path (detected at build).
     avx2: bool,
 }
@@ -63,9 +59,8 @@ impl Accel {
         let avx2 = detect_avx2();
         if tris.is_empty() {
             return Accel {
-                bvh: CwBvh::default(),
-                tris: Vec::new(),
-                original: Vec::new(),
+                bvh: Bvh8::default(),
+                references: 0,
                 avx2,
             };
         }
@@ -76,36 +71,26 @@ impl Accel {
             BvhBuildParams::slow_build(),
             &mut std::time::Duration::default(),
         );
-        let original: Vec<u32> = bvh.primitive_indices.clone();
-        let leaf_tris = original
-            .iter()
-            .map(|&i| {
-                let t = &tris[i as usize];
-                Tri {
-                    v: [t.v0, t.v1, t.v2],
-                }
-            })
-            .collect();
+        let vertices: Vec<[Vec3A; 3]> = tris.iter().map(|t| [t.v0, t.v1, t.v2]).collect();
         Accel {
-            bvh,
-            tris: leaf_tris,
-            original,
+            bvh: Bvh8::from_cwbvh(&bvh, &vertices),
+            references: bvh.primitive_indices.len(),
             avx2,
         }
     }
 
     /// Number of triangles referenced by the BVH's leaves (spatial splits may repeat one).
     pub fn triangle_count(&self) -> usize {
-        self.tris.len()
+        self.references
     }
 
     /// Closest hit with t in (tmin, tmax).
     #[inline]
     pub fn intersect(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
         self.query::<false>(origin, dir, tmin, tmax, self.avx2)
-            .map(|(id, t, b1, b2)| Hit {
+            .map(|(triangle, t, b1, b2)| Hit {
                 t,
-                triangle: self.original[id as usize],
+                triangle,
                 bary: Vec2::new(b1, b2),
             })
     }
@@ -126,7 +111,7 @@ impl Accel {
         tmax: f32,
         avx2: bool,
     ) -> Option<(u32, f32, f32, f32)> {
-        if self.tris.is_empty() {
+        if self.bvh.nodes.is_empty() {
             return None;
         }
         let rn = RayNode::new(origin, dir, tmin);
@@ -135,10 +120,11 @@ impl Accel {
         if avx2 {
             // SAFETY: `avx2` is true only when `detect_avx2` found AVX2 on this CPU (or a test
             // asked for it after checking the same).
-            return unsafe { traverse_avx2::<ANY>(&self.bvh.nodes, &self.tris, &rn, &rt, tmax) };
+            return unsafe { traverse_avx2::<ANY>(&self.bvh, &rn, &rt, tmax) };
         }
         let _ = avx2;
-        traverse::traverse::<ANY>(&self.bvh.nodes, &self.tris, &rn, &rt, tmax)
+        // SAFETY: the portable node test needs no CPU feature.
+        unsafe { traverse::traverse::<ANY, traverse::Portable>(&self.bvh, &rn, &rt, tmax) }
     }
 }
 
@@ -153,21 +139,21 @@ fn detect_avx2() -> bool {
     }
 }
 
-/// The same traversal compiled for AVX2: the node test's eight lanes become one 256-bit
-/// vector. No FMA is enabled, so the arithmetic (and every answer) equals the portable path's.
+/// The same traversal compiled for AVX2, with the node test's eight lanes as one 256-bit vector
+/// (`traverse::Avx2`). No FMA is used, so the arithmetic (and every answer) equals the
+/// portable path's.
 ///
 /// # Safety
 /// The CPU must support AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 unsafe fn traverse_avx2<const ANY: bool>(
-    nodes: &[obvhs::cwbvh::node::CwBvhNode],
-    tris: &[Tri],
+    bvh: &Bvh8,
     rn: &RayNode,
     rt: &RayTri,
     tmax: f32,
 ) -> Option<(u32, f32, f32, f32)> {
-    traverse::traverse::<ANY>(nodes, tris, rn, rt, tmax)
+    traverse::traverse::<ANY, traverse::Avx2>(bvh, rn, rt, tmax)
 }
 
 /// Brute-force closest hit over all triangles (the first of equal distances), with the same

@@ -321,3 +321,98 @@ fn empty_scene_has_no_hits() {
     assert_eq!(h.map(|h| h.t), Some(1.0));
     let _ = Vec2::ZERO;
 }
+
+/// The four-lane leaf test gives, bit for bit, what the one-triangle test gives on each of
+/// the leaf's triangles (closest: least t, lowest lane on ties; occlusion: any), ignores the
+/// lanes past the leaf's count, and takes the f64 path on edges like the one-triangle test.
+#[test]
+fn four_lane_leaf_test_equals_the_one_triangle_test() {
+    use super::triangle::{intersect, intersect4, RayTri, Tri};
+    let mut rng = Rng::for_sample(10, 11, 12);
+    // Leaves of 1 to 3 triangles around the origin; a ray from a random point aimed at a
+    // random vertex, edge point or interior point of one of them (edges: the f64 path), and
+    // the rows padded with a triangle every ray hits, which only the lane mask keeps out.
+    let big = tri(
+        Vec3::new(-50.0, -50.0, 0.01),
+        Vec3::new(50.0, -50.0, 0.02),
+        Vec3::new(0.0, 50.0, 0.015),
+    );
+    let (mut hits, mut edges) = (0, 0);
+    for case in 0..20000 {
+        let n = 1 + case % 3;
+        let mut tris: Vec<Triangle> = random_triangles(n, &mut rng)
+            .iter()
+            .map(|t| {
+                let s = |v: glam::Vec3A| (Vec3::from(v) * 0.3).into();
+                Triangle {
+                    v0: s(t.v0),
+                    v1: s(t.v1),
+                    v2: s(t.v2),
+                }
+            })
+            .collect();
+        if case % 7 == 0 && n > 1 {
+            // Two triangles sharing an edge, bit-identical vertices.
+            tris[1].v0 = tris[0].v1;
+            tris[1].v1 = tris[0].v0;
+        }
+        let mut rows = vec![0.0f32; 9 * n + 4];
+        let mut padded = tris.clone();
+        padded.extend(std::iter::repeat_n(big, 4 - n));
+        for k in 0..3 {
+            for axis in 0..3 {
+                for (lane, t) in padded.iter().enumerate() {
+                    let v = [t.v0, t.v1, t.v2][k];
+                    // Lanes past n land in the next rows (as in the BVH), the last in the pad.
+                    let at = (3 * k + axis) * n + lane;
+                    if lane < n || at >= 9 * n {
+                        rows[at] = v[axis];
+                    }
+                }
+            }
+        }
+        let t0 = tris[case % n];
+        let (a, b, c) = (Vec3::from(t0.v0), Vec3::from(t0.v1), Vec3::from(t0.v2));
+        let target = match case % 4 {
+            0 => a,
+            1 => a + (b - a) * rng.next_f32(),
+            _ => {
+                let (u, v) = (rng.next_f32(), rng.next_f32());
+                let (u, v) = if u + v > 1.0 {
+                    (1.0 - u, 1.0 - v)
+                } else {
+                    (u, v)
+                };
+                a + (b - a) * u + (c - a) * v
+            }
+        };
+        let o = rand3(&mut rng) * 4.0 - 2.0;
+        let d = (target - o).normalize();
+        let r = RayTri::new(o, d);
+        let tmax = if case % 5 == 0 { 1.0 } else { f32::INFINITY };
+        let mut expect: Option<(usize, f32, f32, f32)> = None;
+        for (lane, t) in tris.iter().enumerate() {
+            let one = Tri {
+                v: [t.v0, t.v1, t.v2],
+            };
+            if let Some((t, b1, b2)) = intersect(&one, &r, 0.0, tmax) {
+                if expect.is_none_or(|e| t < e.1) {
+                    expect = Some((lane, t, b1, b2));
+                }
+            }
+        }
+        let bits = |h: Option<(usize, f32, f32, f32)>| {
+            h.map(|h| (h.0, h.1.to_bits(), h.2.to_bits(), h.3.to_bits()))
+        };
+        let got = intersect4::<false>(&rows, n, &r, 0.0, tmax);
+        assert_eq!(bits(got), bits(expect), "case {case}: {tris:?} o {o} d {d}");
+        let any = intersect4::<true>(&rows, n, &r, 0.0, tmax);
+        assert_eq!(any.is_some(), expect.is_some(), "case {case}: occlusion");
+        hits += expect.is_some() as usize;
+        edges += (case % 4 < 2) as usize;
+    }
+    assert!(
+        hits > 8000 && edges > 8000,
+        "{hits} hits, {edges} edge rays"
+    );
+}

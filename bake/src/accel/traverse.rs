@@ -1,44 +1,47 @@
-//! Traversal of obvhs' compressed wide BVH (CWBVH, Ylitie et al. 2017) with our own node test:
-//! all eight children of a node against the ray at once, in lanes the compiler vectorizes
-//! (8-wide with AVX2, 2 x 4 with the SSE2 baseline; see `Accel`'s dispatch in `mod.rs`).
+//! Traversal of our BVH8 ([`super::bvh8`]): all eight child boxes of a node against the ray at
+//! once ([`NodeTest`]: one 256-bit vector with AVX2, else eight lanes the compiler vectorizes;
+//! see `Accel`'s dispatch in `mod.rs`), a leaf's triangles tested four at once
+//! ([`triangle::intersect4`]). Closest hit visits the children hit nearest first (sorted by
+//! entry distance); occlusion tests the leaves hit at once and pushes the inner children
+//! unsorted (sorting measured slower there: any hit ends the query).
 //!
-//! The traversal order and the node/leaf bookkeeping are obvhs' (its `traverse!` macro: child
-//! groups ordered by the ray's octant, leaves as bit groups of primitives); what differs is the
-//! node test:
+//! The node test is conservative in floating point: the boxes are already grown by 1/64 of
+//! their CWBVH grid cell ([`super::bvh8`]), and the exit distance, after clamping to the ray's
+//! current tmax, grows by 16 ulp: more than the rounding of the slab distances and of the
+//! triangle test's t, so a triangle lying in a box face (axis-aligned walls: zero-thickness
+//! boxes) is never culled by a rounding, not even when it is a hair closer than the hit found
+//! so far; the watertight triangle test decides. Entry distances are clamped to the ray's own
+//! tmin (obvhs' traversal clamped them to 1e-4, so a ray leaving a wall near a corner missed
+//! the adjacent wall when it was closer than that: 196 of 2M rays on the Cornell box).
 //!
-//! - obvhs clamps every child's entry distance to at least 1e-4, so a ray leaving a wall near a
-//!   corner missed the adjacent wall when it was closer than that (196 of 2M rays on the
-//!   Cornell box); we clamp to the ray's own tmin;
-//! - it is conservative in floating point: each quantized child box is grown by 1/64 of its
-//!   grid cell on every side, and the exit distance, after clamping to the ray's current tmax,
-//!   by 16 ulp: more than the rounding of the slab distances and of the triangle test's t, so
-//!   a triangle lying in a box face (axis-aligned walls: zero-thickness boxes) is never culled
-//!   by a rounding, not even when it is a hair closer than the hit found so far (obvhs' test
-//!   missed such hits at the corners of a closed box); the watertight triangle test decides;
-//! - one ray, eight lanes of plain `if a > b` min/max, so the vectorized and scalar code give
-//!   the same answers bit for bit (Rust never contracts a*b+c into an FMA).
+//! Since culling never drops a triangle closer than the current tmax, the closest hit is the
+//! least t over all triangles whatever the visiting order; only between triangles at exactly
+//! the same t can the order decide (the first found is kept). Plain `if a > b` min/max: the
+//! vectorized and scalar code give the same answers bit for bit (Rust never contracts a*b+c
+//! into an FMA).
 //!
 //! Closest hit shrinks tmax as it finds hits; occlusion (`ANY`) stops at the first.
 
-use glam::{Vec3, Vec3A};
-use obvhs::cwbvh::node::CwBvhNode;
+use std::mem::MaybeUninit;
 
-use super::triangle::{self, RayTri, Tri};
+use glam::Vec3;
 
-/// Child boxes grow by this many quantization cells on each side.
-const BOX_PAD: f32 = 1.0 / 64.0;
+use super::bvh8::{Bvh8, Node, LEAF, LEAF_COUNT_SHIFT};
+use super::triangle::{self, RayTri};
+
 /// Exit distances (clamped to the ray's tmax) grow by this factor (16 ulp).
 const EXIT_GROW: f32 = 1.0 + 16.0 * f32::EPSILON;
-/// Stack of child groups: one entry per BVH level at most (obvhs' BVH8s stay under 32).
-const STACK: usize = 64;
+/// Traversal stack entries: at most 7 per level pushed (obvhs' BVH8s stay under 32 levels).
+const STACK: usize = 256;
 
 /// The per-ray constants of the node test.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct RayNode {
-    origin: Vec3A,
-    inv_dir: Vec3A,
-    neg: [bool; 3],
-    oct_inv4: u32,
+    org: [f32; 3],
+    inv_dir: [f32; 3],
+    /// Rows of `Node::bounds` holding the near and far planes along x, y, z: (near x, far x,
+    /// near y, far y, near z, far z), each below 6.
+    rows: [usize; 6],
     tmin: f32,
 }
 
@@ -53,14 +56,15 @@ impl RayNode {
                 d
             }
         };
-        let oct_inv4 = (if dir.x < 0.0 { 0 } else { 0x04040404 })
-            | (if dir.y < 0.0 { 0 } else { 0x02020202 })
-            | (if dir.z < 0.0 { 0 } else { 0x01010101 });
+        let (x, y, z) = (
+            (dir.x < 0.0) as usize,
+            (dir.y < 0.0) as usize,
+            (dir.z < 0.0) as usize,
+        );
         RayNode {
-            origin: origin.into(),
-            inv_dir: Vec3A::new(inv(dir.x), inv(dir.y), inv(dir.z)),
-            neg: [dir.x < 0.0, dir.y < 0.0, dir.z < 0.0],
-            oct_inv4,
+            org: origin.to_array(),
+            inv_dir: [inv(dir.x), inv(dir.y), inv(dir.z)],
+            rows: [x, 1 - x, 2 + y, 3 - y, 4 + z, 5 - z],
             tmin,
         }
     }
@@ -84,127 +88,247 @@ fn min(a: f32, b: f32) -> f32 {
     }
 }
 
-/// The node's hit mask in obvhs' layout: bits 24..32 the internal children hit (by traversal
-/// priority), bits 0..24 the primitives of the leaf children hit.
-#[inline(always)]
-fn node_hits(node: &CwBvhNode, r: &RayNode, tmax: f32) -> u32 {
-    // Child plane at quantized q along an axis: t = q * a + b.
-    let a = node.compute_extent() * r.inv_dir;
-    let b = (Vec3A::from(node.p) - r.origin) * r.inv_dir;
-    let pad = a.abs() * BOX_PAD;
-    let (bn, bf) = (b - pad, b + pad);
-    let pick = |neg: bool, lo: &[u8; 8], hi: &[u8; 8]| if neg { (*hi, *lo) } else { (*lo, *hi) };
-    let (nx, fx) = pick(r.neg[0], &node.child_min_x, &node.child_max_x);
-    let (ny, fy) = pick(r.neg[1], &node.child_min_y, &node.child_max_y);
-    let (nz, fz) = pick(r.neg[2], &node.child_min_z, &node.child_max_z);
-    let mut hit = [0u8; 8];
-    for i in 0..8 {
-        let tnx = nx[i] as f32 * a.x + bn.x;
-        let tny = ny[i] as f32 * a.y + bn.y;
-        let tnz = nz[i] as f32 * a.z + bn.z;
-        let tfx = fx[i] as f32 * a.x + bf.x;
-        let tfy = fy[i] as f32 * a.y + bf.y;
-        let tfz = fz[i] as f32 * a.z + bf.z;
-        let tn = max(max(tnx, tny), max(tnz, r.tmin));
-        let tf = min(min(min(tfx, tfy), tfz), tmax) * EXIT_GROW;
-        hit[i] = if tn <= tf { 0xff } else { 0 };
-    }
-    let (child_bits8, bit_index8) = node.get_child_and_index_bits(r.oct_inv4);
-    let sel = child_bits8 & u64::from_le_bytes(hit);
-    let mut mask = 0u32;
-    for i in 0..8 {
-        let bits = ((sel >> (8 * i)) & 0xff) as u32;
-        let index = ((bit_index8 >> (8 * i)) & 0x1f) as u32;
-        mask |= bits << index;
-    }
-    mask
+/// The node test: bit i of the result set when child i's box overlaps the ray in
+/// (tmin, tmax), its entry distance in `tn[i]`. Two implementations with the same operations
+/// in the same order, so the same answers bit for bit: [`Portable`] and [`Avx2`].
+pub(super) trait NodeTest {
+    /// # Safety
+    /// The implementation's CPU features must be present.
+    unsafe fn hits(node: &Node, r: &RayNode, tmax: f32, tn: &mut [f32; 8]) -> u32;
 }
 
-/// Closest hit in (tmin, tmax) as (leaf-order triangle, t, b1, b2); with `ANY`, the first hit
+/// Plain Rust, eight lanes the compiler vectorizes as it can.
+pub(super) struct Portable;
+
+impl NodeTest for Portable {
+    #[inline(always)]
+    unsafe fn hits(node: &Node, r: &RayNode, tmax: f32, tn: &mut [f32; 8]) -> u32 {
+        let b = &node.bounds;
+        let [nx, fx, ny, fy, nz, fz] = r.rows.map(|k| &b[k]);
+        let [ox, oy, oz] = r.org;
+        let [ix, iy, iz] = r.inv_dir;
+        let mut mask = 0u32;
+        for i in 0..8 {
+            let tnx = (nx[i] - ox) * ix;
+            let tny = (ny[i] - oy) * iy;
+            let tnz = (nz[i] - oz) * iz;
+            let tfx = (fx[i] - ox) * ix;
+            let tfy = (fy[i] - oy) * iy;
+            let tfz = (fz[i] - oz) * iz;
+            let near = max(max(tnx, tny), max(tnz, r.tmin));
+            let far = min(min(min(tfx, tfy), tfz), tmax) * EXIT_GROW;
+            tn[i] = near;
+            mask |= ((near <= far) as u32) << i;
+        }
+        mask
+    }
+}
+
+/// The eight lanes as one AVX 256-bit vector. `_mm256_max_ps(a, b)` is `if a > b { a } else
+/// { b }` and `_mm256_min_ps(a, b)` `if a < b { a } else { b }` (NaN included), as `max` and
+/// `min` above.
+#[cfg(target_arch = "x86_64")]
+pub(super) struct Avx2;
+
+#[cfg(target_arch = "x86_64")]
+impl NodeTest for Avx2 {
+    #[inline(always)]
+    unsafe fn hits(node: &Node, r: &RayNode, tmax: f32, tn: &mut [f32; 8]) -> u32 {
+        node_hits_avx2(node, r, tmax, tn)
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn node_hits_avx2(node: &Node, r: &RayNode, tmax: f32, tn: &mut [f32; 8]) -> u32 {
+    use std::arch::x86_64::*;
+    // SAFETY (loads): `bounds` is six rows of 8 f32 at a 64-byte aligned address (`Node` is
+    // `align(64)`), and `RayNode::new` makes every row index below 6.
+    let b = node.bounds.as_ptr() as *const f32;
+    let row = |k: usize| _mm256_load_ps(b.add(r.rows[k] * 8));
+    let (nx, fx, ny, fy, nz, fz) = (row(0), row(1), row(2), row(3), row(4), row(5));
+    let (ox, oy, oz) = (
+        _mm256_set1_ps(r.org[0]),
+        _mm256_set1_ps(r.org[1]),
+        _mm256_set1_ps(r.org[2]),
+    );
+    let (ix, iy, iz) = (
+        _mm256_set1_ps(r.inv_dir[0]),
+        _mm256_set1_ps(r.inv_dir[1]),
+        _mm256_set1_ps(r.inv_dir[2]),
+    );
+    let tnx = _mm256_mul_ps(_mm256_sub_ps(nx, ox), ix);
+    let tny = _mm256_mul_ps(_mm256_sub_ps(ny, oy), iy);
+    let tnz = _mm256_mul_ps(_mm256_sub_ps(nz, oz), iz);
+    let tfx = _mm256_mul_ps(_mm256_sub_ps(fx, ox), ix);
+    let tfy = _mm256_mul_ps(_mm256_sub_ps(fy, oy), iy);
+    let tfz = _mm256_mul_ps(_mm256_sub_ps(fz, oz), iz);
+    let near = _mm256_max_ps(
+        _mm256_max_ps(tnx, tny),
+        _mm256_max_ps(tnz, _mm256_set1_ps(r.tmin)),
+    );
+    let far = _mm256_mul_ps(
+        _mm256_min_ps(
+            _mm256_min_ps(_mm256_min_ps(tfx, tfy), tfz),
+            _mm256_set1_ps(tmax),
+        ),
+        _mm256_set1_ps(EXIT_GROW),
+    );
+    _mm256_storeu_ps(tn.as_mut_ptr(), near);
+    _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32
+}
+
+/// Closest hit in (tmin, tmax) as (scene triangle, t, b1, b2); with `ANY`, the first hit
 /// found.
+///
+/// # Safety
+/// `T`'s CPU features must be present.
 #[inline(always)]
-pub(super) fn traverse<const ANY: bool>(
-    nodes: &[CwBvhNode],
-    tris: &[Tri],
+pub(super) unsafe fn traverse<const ANY: bool, T: NodeTest>(
+    bvh: &Bvh8,
     rn: &RayNode,
     rt: &RayTri,
     mut tmax: f32,
 ) -> Option<(u32, f32, f32, f32)> {
     let mut best: Option<(u32, f32, f32, f32)> = None;
-    let mut stack = [(0u32, 0u32); STACK];
+    // (child reference, entry distance), nearest on top; uninitialised (a 2 KB memset per ray
+    // cost 3 %), read only below `sp`, where written. Indices are taken modulo STACK, which
+    // removes the bounds checks and cannot be reached (at most 7 entries per level).
+    let mut stack = [const { MaybeUninit::<(u32, f32)>::uninit() }; STACK];
     let mut sp = 0usize;
-    // (child base index, hit bits 24..32 | imask) and (primitive base index, primitive bits).
-    let mut group = (0u32, 0x8000_0000u32);
-    let mut prims = (0u32, 0u32);
+    let mut cur = 0u32;
     loop {
-        while prims.1 != 0 {
-            let local = 31 - prims.1.leading_zeros();
-            prims.1 &= !(1u32 << local);
-            let id = prims.0 + local;
-            if let Some((t, b1, b2)) = triangle::intersect(&tris[id as usize], rt, rn.tmin, tmax) {
-                best = Some((id, t, b1, b2));
+        if cur & LEAF != 0 {
+            if let Some(hit) = leaf::<ANY>(bvh, cur, rt, rn.tmin, tmax) {
+                best = Some(hit);
                 if ANY {
                     return best;
                 }
-                tmax = t;
+                tmax = hit.1;
             }
-        }
-        if group.1 & 0xff00_0000 != 0 {
-            let hits_imask = group.1;
-            let offset = 31 - hits_imask.leading_zeros();
-            group.1 &= !(1u32 << offset);
-            if group.1 & 0xff00_0000 != 0 {
-                stack[sp] = group;
-                sp += 1;
-            }
-            let slot = (offset - 24) ^ (rn.oct_inv4 & 0xff);
-            let relative = (hits_imask & !(0xffff_ffffu32 << slot)).count_ones();
-            let node = &nodes[(group.0 + relative) as usize];
-            let mask = node_hits(node, rn, tmax);
-            group = (
-                node.child_base_idx,
-                (mask & 0xff00_0000) | node.imask as u32,
-            );
-            prims = (node.primitive_base_idx, mask & 0x00ff_ffff);
-            prefetch_triangles(tris, prims);
         } else {
-            group = (0, 0);
+            let node = &bvh.nodes[cur as usize];
+            // The child references are the node's last cache line, read only after the box
+            // test: ask for it now so its miss overlaps the box rows'.
+            prefetch(node.child.as_ptr() as *const u8);
+            let mut tn = [0f32; 8];
+            let mut mask = T::hits(node, rn, tmax, &mut tn);
+            if mask != 0 && mask & (mask - 1) == 0 {
+                // One child hit: descend, nothing to push.
+                cur = node.child[mask.trailing_zeros() as usize & 7];
+                continue;
+            }
+            if ANY && mask != 0 {
+                // Occlusion: test the leaves hit now (a hit ends the query), push the inner
+                // children unsorted, and descend into the last.
+                let base = sp;
+                while mask != 0 {
+                    let i = mask.trailing_zeros() as usize & 7;
+                    mask &= mask - 1;
+                    let c = node.child[i];
+                    if c & LEAF != 0 {
+                        if let Some(hit) = leaf::<ANY>(bvh, c, rt, rn.tmin, tmax) {
+                            return Some(hit);
+                        }
+                    } else {
+                        prefetch_child(bvh, c);
+                        stack[sp % STACK].write((c, tn[i]));
+                        sp += 1;
+                    }
+                }
+                if sp > base {
+                    sp -= 1;
+                    // SAFETY: sp < the count written.
+                    cur = unsafe { stack[sp % STACK].assume_init() }.0;
+                    continue;
+                }
+            } else if mask != 0 {
+                // Push the children hit, sorted (insertion sort, stable: ties keep slot order)
+                // so the nearest is on top, and descend into it.
+                let base = sp;
+                while mask != 0 {
+                    let i = mask.trailing_zeros() as usize & 7;
+                    mask &= mask - 1;
+                    let e = (node.child[i], tn[i]);
+                    let mut j = sp;
+                    while j > base {
+                        // SAFETY: base <= j - 1 < sp: written above.
+                        let below = unsafe { stack[(j - 1) % STACK].assume_init() };
+                        if below.1 >= e.1 {
+                            break;
+                        }
+                        stack[j % STACK].write(below);
+                        j -= 1;
+                    }
+                    stack[j % STACK].write(e);
+                    sp += 1;
+                }
+                sp -= 1;
+                // SAFETY: sp < the count written.
+                cur = unsafe { stack[sp % STACK].assume_init() }.0;
+                // The others are visited later: start loading them now.
+                for k in base..sp {
+                    // SAFETY: base <= k < sp: written above.
+                    prefetch_child(bvh, unsafe { stack[k % STACK].assume_init() }.0);
+                }
+                continue;
+            }
         }
-        if prims.1 == 0 && group.1 & 0xff00_0000 == 0 {
+        // Pop the nearest entry still in reach.
+        loop {
             if sp == 0 {
                 return best;
             }
             sp -= 1;
-            group = stack[sp];
+            // SAFETY: sp < the count written.
+            let (c, t) = unsafe { stack[sp % STACK].assume_init() };
+            if ANY || t <= tmax * EXIT_GROW {
+                cur = c;
+                break;
+            }
         }
     }
 }
 
-/// Asks for the cache lines of all the triangles a node's leaves will test, before testing the
-/// first, so their misses overlap. Triangle and node loads are the hottest instructions in
-/// `perf` (the ray core is memory-bound at 100K and 1M triangles); measured a few percent,
-/// within the noise of the shared machine. Prefetching the child nodes hit as well measured
-/// nothing, so it is not done.
+/// The triangle test of leaf `child` (a `LEAF` reference): (scene triangle, t, b1, b2).
 #[inline(always)]
-fn prefetch_triangles(tris: &[Tri], prims: (u32, u32)) {
+fn leaf<const ANY: bool>(
+    bvh: &Bvh8,
+    child: u32,
+    rt: &RayTri,
+    tmin: f32,
+    tmax: f32,
+) -> Option<(u32, f32, f32, f32)> {
+    let first = (child & ((1 << LEAF_COUNT_SHIFT) - 1)) as usize;
+    let n = ((child & !LEAF) >> LEAF_COUNT_SHIFT) as usize + 1;
+    let (lane, t, b1, b2) = triangle::intersect4::<ANY>(&bvh.rows[9 * first..], n, rt, tmin, tmax)?;
+    Some((bvh.ids[first + lane], t, b1, b2))
+}
+
+/// Asks for the first cache lines of a child: a node's box rows, or a leaf's coordinates.
+#[inline(always)]
+fn prefetch_child(bvh: &Bvh8, child: u32) {
+    let p = if child & LEAF != 0 {
+        let first = (child & ((1 << LEAF_COUNT_SHIFT) - 1)) as usize;
+        bvh.rows.as_ptr().wrapping_add(9 * first) as *const u8
+    } else {
+        bvh.nodes.as_ptr().wrapping_add(child as usize) as *const u8
+    };
+    prefetch(p);
+    prefetch(p.wrapping_add(64));
+    prefetch(p.wrapping_add(128));
+}
+
+/// A cache hint; it never faults, whatever the address.
+#[inline(always)]
+fn prefetch(p: *const u8) {
     #[cfg(target_arch = "x86_64")]
-    {
+    // SAFETY: a prefetch only hints the cache and never faults.
+    unsafe {
         use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        let mut bits = prims.1;
-        while bits != 0 {
-            let i = (prims.0 + bits.trailing_zeros()) as usize;
-            bits &= bits - 1;
-            if let Some(t) = tris.get(i) {
-                let p = t as *const Tri as *const i8;
-                // SAFETY: a prefetch only hints the cache and never faults; p and p + 32 lie
-                // inside the 48-byte triangle (its two cache lines at most).
-                unsafe {
-                    _mm_prefetch::<_MM_HINT_T0>(p);
-                    _mm_prefetch::<_MM_HINT_T0>(p.add(32));
-                }
-            }
-        }
+        _mm_prefetch::<_MM_HINT_T0>(p as *const i8);
     }
     #[cfg(not(target_arch = "x86_64"))]
-    let _ = (tris, prims);
+    let _ = p;
 }
