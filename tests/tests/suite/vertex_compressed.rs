@@ -23,7 +23,7 @@ use prt_formats::pixel::Precision;
 use prt_runtime::vertex::{VertexIncident, VertexRelighter};
 use prt_tests::{relative_l2, small_basis, temp_path};
 
-use super::vertex_exactness::{environment, scene};
+use super::vertex_exactness::{environment, scene, EDITS};
 
 /// Bakes the exactness scene with `compression` (None: dense) and opens it relit.
 fn relit(name: &str, compression: Option<CompressionSettings>) -> VertexRelighter {
@@ -51,12 +51,7 @@ fn relit(name: &str, compression: Option<CompressionSettings>) -> VertexRelighte
     let (w, h, texels) = environment();
     r.set_environment_latlong(w, h, texels, 30.0)
         .expect("environment");
-    for e in [
-        "floor.kd=0.3,0.5,0.7",
-        "ball.kd=0.2,0.1,0.05",
-        "ball.ks=0.9,0.6,0.3",
-        "ball.alpha=0.25",
-    ] {
+    for e in EDITS {
         r.apply(&prt_formats::parse_override(e).expect("edit syntax"))
             .expect("edit applies");
     }

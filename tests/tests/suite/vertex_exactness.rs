@@ -81,6 +81,14 @@ const TOLERANCE_T1: f64 = 1e-5;
 /// A diffuse floor (6 x 6 grid, editable), an editable GGX ball above it (42 vertices) and a
 /// fixed glossy GGX back wall, so that every group sees the others: T1 and T2 have blocks of
 /// a diffuse slot, PCA basis slots and a fixed material's slot.
+/// The edits of both editable materials the relit scene is checked under.
+pub(crate) const EDITS: [&str; 4] = [
+    "floor.kd=0.3,0.5,0.7",
+    "ball.kd=0.2,0.1,0.05",
+    "ball.ks=0.9,0.6,0.3",
+    "ball.alpha=0.25",
+];
+
 pub(crate) fn scene() -> Scene {
     let mut b = SceneBuilder::new();
     let floor = b.material(
@@ -325,12 +333,7 @@ fn relit_incident_light_equals_an_independent_projection_of_the_traced_paths() {
     let (w, h, texels) = environment();
     r.set_environment_latlong(w, h, texels.clone(), ROTATION_DEG)
         .expect("environment");
-    for e in [
-        "floor.kd=0.3,0.5,0.7",
-        "ball.kd=0.2,0.1,0.05",
-        "ball.ks=0.9,0.6,0.3",
-        "ball.alpha=0.25",
-    ] {
+    for e in EDITS {
         r.apply(&prt_formats::parse_override(e).expect("edit syntax"))
             .expect("edit applies");
     }
