@@ -78,9 +78,6 @@ const TOLERANCE_T0: f64 = 1e-4;
 /// its `pi I2` term: 5.9e-4, six times [`TOLERANCE_T0`].
 const TOLERANCE_T1: f64 = 1e-5;
 
-/// A diffuse floor (6 x 6 grid, editable), an editable GGX ball above it (42 vertices) and a
-/// fixed glossy GGX back wall, so that every group sees the others: T1 and T2 have blocks of
-/// a diffuse slot, PCA basis slots and a fixed material's slot.
 /// The edits of both editable materials the relit scene is checked under.
 pub(crate) const EDITS: [&str; 4] = [
     "floor.kd=0.3,0.5,0.7",
@@ -89,6 +86,9 @@ pub(crate) const EDITS: [&str; 4] = [
     "ball.alpha=0.25",
 ];
 
+/// A diffuse floor (6 x 6 grid, editable), an editable GGX ball above it (42 vertices) and a
+/// fixed glossy GGX back wall, so that every group sees the others: T1 and T2 have blocks of
+/// a diffuse slot, PCA basis slots and a fixed material's slot.
 pub(crate) fn scene() -> Scene {
     let mut b = SceneBuilder::new();
     let floor = b.material(
