@@ -141,7 +141,7 @@ pub(super) fn contract_light(
 pub(super) fn one_bounce_per_cluster(light: &ClusterLight, cj: &[[f32; 3]]) -> Vec<f32> {
     let mut m = vec![0.0f32; light.clusters * light.rank * SH_COUNT * 3];
     m.par_chunks_mut(SH_COUNT * 3)
-        .zip(light.per_cluster.par_chunks(light.elements * 3))
+        .zip(light.per_cluster.par_chunks((light.elements * 3).max(1)))
         .for_each(|(mb, sb)| {
             for (sj, c) in sb.chunks_exact(SH_COUNT * 3).zip(cj) {
                 for (acc, x) in mb.chunks_exact_mut(3).zip(sj.chunks_exact(3)) {
