@@ -26,7 +26,7 @@ use crate::scene::Scene;
 
 use super::cluster::cluster_vertices;
 use super::error::VertexError;
-use super::write::{store, store_unscaled, Stored};
+use super::write::{store, store_unscaled, StoredTucker};
 use super::CompressedGroupData;
 
 /// One cluster's Tucker factors (f32, row-major).
@@ -53,21 +53,6 @@ pub(crate) struct CompressedTensor {
     /// `[V, B]`.
     pub vertex: Vec<f32>,
     pub figures: TensorCompression,
-}
-
-/// A compressed tensor in its storage precision (the core scaled, the factors not).
-#[derive(Clone, Debug, PartialEq)]
-pub struct StoredTucker {
-    /// `[K, 3]` `(a, r, b)`.
-    pub ranks: Vec<u32>,
-    /// Light and element factors, cluster after cluster.
-    pub factors: Stored,
-    /// Cores, cluster after cluster, divided by the scale.
-    pub core: Stored,
-    /// `[V, B]`.
-    pub vertex: Stored,
-    /// B, the width of `vertex`.
-    pub vertex_rank: usize,
 }
 
 impl CompressedTensor {

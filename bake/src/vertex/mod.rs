@@ -57,7 +57,6 @@ use crate::scene::Scene;
 
 pub use bake::{bake_vertex_checkpointed, bake_vertex_with, VertexTimings, WAVE_VERTICES};
 pub use checkpoint::{checkpoint_folder, Checkpoint};
-pub use compress::StoredTucker;
 pub use direct::T0_TEXELS;
 pub use error::{CheckpointError, VertexError};
 pub use fingerprint::Fingerprint;
@@ -66,7 +65,7 @@ pub use plan::{check_scene, vertex_materials, PlannedGroup, VertexPlan};
 #[doc(hidden)]
 pub use trace::{EscapingPath, SecondBounce};
 pub use trace::{VertexResult, VertexTracer};
-pub use write::{vertex_file_bytes, write_vertex_file, Stored};
+pub use write::{vertex_file_bytes, write_vertex_file, Stored, StoredTucker};
 
 /// Largest N2 (`[vertex] secondary`).
 pub const MAX_SECONDARY: u32 = crate::config::MAX_SECONDARY;

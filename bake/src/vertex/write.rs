@@ -10,7 +10,6 @@ use prt_formats::{BakeWriter, FormatError};
 
 use crate::pixel::{add_basis_tables, to_f16_scaled};
 
-use super::compress::StoredTucker;
 use super::error::VertexError;
 use super::VertexBake;
 
@@ -44,6 +43,21 @@ impl Stored {
             Stored::F16(v) => v.iter().map(|h| h.to_f32()).collect(),
         }
     }
+}
+
+/// A compressed tensor in its storage precision (the core scaled, the factors not).
+#[derive(Clone, Debug, PartialEq)]
+pub struct StoredTucker {
+    /// `[K, 3]` `(a, r, b)`.
+    pub ranks: Vec<u32>,
+    /// Light and element factors, cluster after cluster.
+    pub factors: Stored,
+    /// Cores, cluster after cluster, divided by the scale.
+    pub core: Stored,
+    /// `[V, B]`.
+    pub vertex: Stored,
+    /// B, the width of `vertex`.
+    pub vertex_rank: usize,
 }
 
 /// Converts values to their storage: f32 as they are (scale 1), or f16 with the per-pixel
