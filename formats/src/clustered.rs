@@ -84,7 +84,7 @@ impl TuckerLayout {
     /// bins and `width` elements. Refuses ranks above the dimensions they reduce (`a <= bins`,
     /// `r <= width`) and sizes that overflow, naming the cluster.
     pub fn new(ranks: &[u32], bins: usize, width: usize) -> Result<TuckerLayout, String> {
-        if ranks.len() % 3 != 0 {
+        if !ranks.len().is_multiple_of(3) {
             return Err(format!("{} rank values, not a multiple of 3", ranks.len()));
         }
         let k = ranks.len() / 3;

@@ -97,7 +97,7 @@ impl VertexConfig {
             if !(e.is_finite() && (0.0..1.0).contains(&e)) {
                 return Err(c.err(
                     "vertex.compress_error",
-                    &format!("{e} is not a relative error in [0, 1)"),
+                    format!("{e} is not a relative error in [0, 1)"),
                 ));
             }
         }

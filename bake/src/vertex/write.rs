@@ -146,7 +146,7 @@ fn writer(bake: &VertexBake) -> Result<BakeWriter<'_>, FormatError> {
         )?;
         w.add_u8(
             &names::visibility(g),
-            &[v, if v == 0 { 0 } else { data.visibility.len() / v }],
+            &[v, data.visibility.len().checked_div(v).unwrap_or(0)],
             &data.visibility,
         )?;
         if let Some(comp) = &data.compressed {
