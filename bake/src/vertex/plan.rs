@@ -359,6 +359,18 @@ impl VertexPlan {
             human_bytes(total),
             opts.precision.name()
         ));
+        if let Some(c) = &opts.compression {
+            r.push_str(&format!(
+                " before compression: T1 and T2 are stored compressed (clusters of about {} \
+                 vertices, error target {} %, ranks at most {} light x {} element x {} vertex; \
+                 the ranks chosen are reported per group)",
+                c.cluster_vertices,
+                100.0 * c.error_target,
+                c.max_light_rank,
+                c.max_element_rank,
+                c.max_vertex_rank
+            ));
+        }
         r
     }
 }
