@@ -37,6 +37,11 @@ pub(super) struct CompressedLayout {
 #[derive(Clone, Debug)]
 pub(super) struct CompressedTensor {
     pub layout: TuckerLayout,
+    /// Per cluster, its first row in the per-cluster results (the vertex ranks before it),
+    /// and the total: results are stored ragged, `b_c` rows per cluster, so their size is
+    /// bounded by the vertices (`b_c` never exceeds the cluster's size, checked at opening).
+    pub rows_at: Vec<usize>,
+    pub rows: usize,
     pub factors: Vec<f32>,
     pub core: Vec<f32>,
     /// `[V][B]`.
@@ -47,13 +52,11 @@ pub(super) struct CompressedTensor {
 /// factor's rows.
 #[derive(Clone, Debug, Default)]
 pub(super) struct ClusterLight {
-    /// Number of clusters K.
-    pub clusters: usize,
-    /// The vertex rank B (the width of `vertex` and the rows of each cluster's `S`).
-    pub rank: usize,
+    /// Rows: the sum of the clusters' vertex ranks.
+    pub rows: usize,
     /// Elements per channel E (`J x 16` for T1, `J x I` for T2).
     pub elements: usize,
-    /// `[K][B][E][3]`; rows `b >= b_c` of a cluster are zero.
+    /// `[rows][E][3]`: cluster c's `S[b][e][ch]` from row `rows_at[c]`, `b_c` rows.
     pub per_cluster: Vec<f32>,
 }
 
@@ -78,59 +81,62 @@ pub(super) fn contract_light(
 ) -> ClusterLight {
     let (layout, factors, core) = (&t.layout, &t.factors, &t.core);
     let bins = c.len();
-    let rank = layout.vertex_rank;
-    let stride = rank * elements * 3;
-    let mut per_cluster = vec![0.0f32; layout.clusters() * stride];
-    if stride > 0 {
-        per_cluster
-            .par_chunks_mut(stride)
-            .enumerate()
-            .for_each(|(k, out)| {
-                let [a, r, b] = layout.ranks[k];
-                let light = &factors[layout.factor_at[k]..][..bins * a];
-                let element = &factors[layout.factor_at[k] + bins * a..][..elements * channels * r];
-                let core = &core[layout.core_at[k]..][..b * a * r];
-                // P[a][ch].
-                let mut p = vec![[0.0f32; 3]; a];
-                for (cl, row) in c.iter().zip(light.chunks_exact(a.max(1))) {
-                    for (pa, &x) in p.iter_mut().zip(row) {
+    let row = elements * 3;
+    let mut per_cluster = vec![0.0f32; t.rows * row];
+    // One mutable slice per cluster (`b_c` rows each), computed in parallel.
+    let mut slices = Vec::with_capacity(layout.clusters());
+    let mut rest = per_cluster.as_mut_slice();
+    for r in &layout.ranks {
+        let (head, tail) = rest.split_at_mut(r[2] * row);
+        slices.push(head);
+        rest = tail;
+    }
+    if row > 0 {
+        slices.into_par_iter().enumerate().for_each(|(k, out)| {
+            let [a, r, b] = layout.ranks[k];
+            let light = &factors[layout.factor_at[k]..][..bins * a];
+            let element = &factors[layout.factor_at[k] + bins * a..][..elements * channels * r];
+            let core = &core[layout.core_at[k]..][..b * a * r];
+            // P[a][ch].
+            let mut p = vec![[0.0f32; 3]; a];
+            for (cl, row) in c.iter().zip(light.chunks_exact(a.max(1))) {
+                for (pa, &x) in p.iter_mut().zip(row) {
+                    for ch in 0..3 {
+                        pa[ch] += cl[ch] * x;
+                    }
+                }
+            }
+            // Q[b][r][ch].
+            let mut q = vec![[0.0f32; 3]; b * r];
+            for (bb, qb) in q.chunks_exact_mut(r.max(1)).enumerate().take(b) {
+                for (aa, pa) in p.iter().enumerate() {
+                    let row = &core[(bb * a + aa) * r..][..r];
+                    for (qk, &x) in qb.iter_mut().zip(row) {
                         for ch in 0..3 {
-                            pa[ch] += cl[ch] * x;
+                            qk[ch] += pa[ch] * x;
                         }
                     }
                 }
-                // Q[b][r][ch].
-                let mut q = vec![[0.0f32; 3]; b * r];
-                for (bb, qb) in q.chunks_exact_mut(r.max(1)).enumerate().take(b) {
-                    for (aa, pa) in p.iter().enumerate() {
-                        let row = &core[(bb * a + aa) * r..][..r];
-                        for (qk, &x) in qb.iter_mut().zip(row) {
-                            for ch in 0..3 {
-                                qk[ch] += pa[ch] * x;
-                            }
+            }
+            // S[b][e][ch] = scale sum_r Q[b][r][ch] element[(e, ch')][r].
+            for (bb, sb) in out.chunks_exact_mut(elements * 3).enumerate().take(b) {
+                let qb = &q[bb * r..][..r];
+                for (e, se) in sb.chunks_exact_mut(3).enumerate() {
+                    for (ch, s) in se.iter_mut().enumerate() {
+                        let w = if channels == 1 { e } else { e * 3 + ch };
+                        let row = &element[w * r..][..r];
+                        let mut acc = 0.0f32;
+                        for (qk, &x) in qb.iter().zip(row) {
+                            acc += qk[ch] * x;
                         }
+                        *s = scale * acc;
                     }
                 }
-                // S[b][e][ch] = scale sum_r Q[b][r][ch] element[(e, ch')][r].
-                for (bb, sb) in out.chunks_exact_mut(elements * 3).enumerate().take(b) {
-                    let qb = &q[bb * r..][..r];
-                    for (e, se) in sb.chunks_exact_mut(3).enumerate() {
-                        for (ch, s) in se.iter_mut().enumerate() {
-                            let w = if channels == 1 { e } else { e * 3 + ch };
-                            let row = &element[w * r..][..r];
-                            let mut acc = 0.0f32;
-                            for (qk, &x) in qb.iter().zip(row) {
-                                acc += qk[ch] * x;
-                            }
-                            *s = scale * acc;
-                        }
-                    }
-                }
-            });
+            }
+        });
     }
     ClusterLight {
-        clusters: layout.clusters(),
-        rank,
+        rows: t.rows,
         elements,
         per_cluster,
     }
@@ -139,7 +145,7 @@ pub(super) fn contract_light(
 /// T1's material contraction per cluster: `M[k][b][s][ch] = sum_j c_j[ch] S[k][b][j, s][ch]`
 /// (`cj` one RGB triple per active slot).
 pub(super) fn one_bounce_per_cluster(light: &ClusterLight, cj: &[[f32; 3]]) -> Vec<f32> {
-    let mut m = vec![0.0f32; light.clusters * light.rank * SH_COUNT * 3];
+    let mut m = vec![0.0f32; light.rows * SH_COUNT * 3];
     m.par_chunks_mut(SH_COUNT * 3)
         .zip(light.per_cluster.par_chunks((light.elements * 3).max(1)))
         .for_each(|(mb, sb)| {
@@ -161,7 +167,7 @@ pub(super) fn two_bounce_per_cluster(
     ci: &[[f32; 3]],
 ) -> Vec<f32> {
     let n_i = ci.len();
-    let mut m = vec![0.0f32; light.clusters * light.rank * 3];
+    let mut m = vec![0.0f32; light.rows * 3];
     for (acc, sb) in m
         .chunks_exact_mut(3)
         .zip(light.per_cluster.chunks_exact((light.elements * 3).max(1)))
@@ -187,9 +193,9 @@ pub(super) fn expand_vertex(
     v: usize,
     out: &mut [f32],
 ) {
-    let b = tensor.layout.vertex_rank;
-    let u = &tensor.vertex[v * b..][..b];
-    let m = &per_cluster[cluster * b * width..][..b * width];
+    let b = tensor.layout.ranks[cluster][2];
+    let u = &tensor.vertex[v * tensor.layout.vertex_rank..][..b];
+    let m = &per_cluster[tensor.rows_at[cluster] * width..][..b * width];
     out[..width].fill(0.0);
     for (&ub, mb) in u.iter().zip(m.chunks_exact(width)) {
         for (o, &x) in out.iter_mut().zip(mb) {
@@ -227,6 +233,10 @@ pub(super) fn validate_group(
             assign[v]
         )));
     }
+    let mut members = vec![0usize; clusters as usize];
+    for &c in &assign {
+        members[c as usize] += 1;
+    }
     let tensor = |tensor: &str, (bins, width, rank): (usize, usize, u32)| {
         let ranks_name = names::tucker(g, tensor, names::TUCKER_RANKS);
         let t = file.tensor(&ranks_name)?;
@@ -239,6 +249,18 @@ pub(super) fn validate_group(
         }
         let layout = TuckerLayout::new(t.as_u32()?, bins, width)
             .map_err(|e| schema(format!("{ranks_name}: {e}")))?;
+        let mut rows_at = Vec::with_capacity(layout.clusters());
+        let mut rows = 0;
+        for (c, r) in layout.ranks.iter().enumerate() {
+            if r[2] > members[c] {
+                return Err(schema(format!(
+                    "{ranks_name}: cluster {c} has vertex rank {}, more than its {} vertices",
+                    r[2], members[c]
+                )));
+            }
+            rows_at.push(rows);
+            rows += r[2];
+        }
         if layout.vertex_rank != rank as usize {
             return Err(schema(format!(
                 "{ranks_name}: largest vertex rank {}, but the metadata says {rank}",
@@ -262,6 +284,8 @@ pub(super) fn validate_group(
         }
         let read = |part| read_f32(file, &names::tucker(g, tensor, part));
         Ok(CompressedTensor {
+            rows_at,
+            rows,
             factors: read(names::TUCKER_FACTORS)?,
             core: read(names::TUCKER_CORE)?,
             vertex: read(names::TUCKER_VERTEX)?,

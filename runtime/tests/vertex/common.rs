@@ -170,6 +170,9 @@ pub struct Bake {
     /// one-hot vertex rows, and the dense values as cores: the same tensors exactly, through
     /// the runtime's compressed path.
     pub compress_as_identity: bool,
+    /// Changes the cluster of each vertex after the compressed tensors are made (a corrupt
+    /// file for the refusal tests).
+    pub tamper_clusters: Option<fn(&mut Vec<u32>)>,
 }
 
 /// A dense `[V][bins][width]` tensor as an exact clustered Tucker product (see
@@ -435,6 +438,7 @@ impl Bake {
             environment: Vec::new(),
             t1_stored_as: None,
             compress_as_identity: false,
+            tamper_clusters: None,
         }
     }
 
@@ -513,6 +517,10 @@ impl Bake {
                     .iter()
                     .map(|t| [halves(&t.1), halves(&t.2), halves(&t.3)])
                     .collect::<Vec<_>>();
+                let mut clusters = clusters;
+                if let Some(tamper) = self.tamper_clusters {
+                    tamper(&mut clusters);
+                }
                 compressed.push((clusters, tensors, halves));
             }
         }

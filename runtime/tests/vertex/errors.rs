@@ -299,3 +299,31 @@ fn bad_environments_and_edits_are_refused() {
     r.set_params("metal", p).expect("good params");
     assert_eq!(r.params("metal").expect("params").param, 0.6);
 }
+
+#[test]
+fn corrupt_compressed_groups_are_refused_naming_the_tensor() {
+    let mut good = two_quads();
+    good.compress_as_identity = true;
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("good.prtbake");
+    good.write(&path);
+    VertexRelighter::open(&path).expect("the identity-compressed bake opens");
+    let cases: [(fn(&mut Vec<u32>), &str); 2] = [
+        // Vertex 3 moves to cluster 0: cluster 1 keeps its rank 2 with 1 vertex left.
+        (
+            |c| c[3] = 0,
+            "cluster 1 has vertex rank 2, more than its 1 vertices",
+        ),
+        (
+            |c| c[0] = 9,
+            "v0.clusters: vertex 0 is in cluster 9, but there are 2",
+        ),
+    ];
+    for (tamper, want) in cases {
+        let mut bad = two_quads();
+        bad.compress_as_identity = true;
+        bad.tamper_clusters = Some(tamper);
+        let e = open_err(&bad);
+        assert!(e.contains(want), "expected {want:?} in: {e}");
+    }
+}
