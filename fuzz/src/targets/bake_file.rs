@@ -130,6 +130,57 @@ impl BakeFileTarget {
 /// Bakes `scene` (a folder of `scenes/`) tiny and returns the file's bytes. The editable
 /// glossy materials get small bases (a coarse grid, few parameter samples): the baker's
 /// defaults take seconds to build, and the reader treats every basis alike.
+/// A per-vertex bake of a small diffuse scene (a floor and a ball under a constant sky), T1
+/// stored compressed or dense, as file bytes.
+fn tiny_vertex_bake(out: &Path, compressed: bool) -> anyhow::Result<Vec<u8>> {
+    use glam::Vec3;
+    use prt_bake::brdf::BrdfParams;
+    use prt_bake::scene::Environment;
+    use prt_bake::vertex::{bake_vertex, write_vertex_file, VertexBakeOptions};
+    let mut b = prt_bake::testing::SceneBuilder::new();
+    let floor = b.material(
+        "floor",
+        BrdfParams::diffuse(Vec3::splat(0.6)),
+        Vec3::ZERO,
+        true,
+    );
+    let ball = b.material(
+        "ball",
+        BrdfParams::diffuse(Vec3::new(0.8, 0.2, 0.1)),
+        Vec3::ZERO,
+        false,
+    );
+    b.quad(
+        [
+            Vec3::new(-1.0, 0.0, -1.0),
+            Vec3::new(-1.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.0, -1.0),
+        ],
+        floor,
+    );
+    b.sphere(Vec3::new(0.0, 0.4, 0.0), 0.35, 0, ball);
+    b.environment(Environment::Constant(Vec3::ONE));
+    let scene = b.build();
+    let opts = VertexBakeOptions {
+        samples: 4,
+        secondary: 1,
+        t0_terms: 8,
+        compression: compressed.then_some(prt_formats::clustered::CompressionSettings {
+            error_target: 0.1,
+            cluster_vertices: 4,
+            max_light_rank: 8,
+            max_element_rank: 8,
+            max_vertex_rank: 3,
+        }),
+        ..Default::default()
+    };
+    let bake = bake_vertex(&scene, &[], &[], &opts, None)?;
+    let path = out.join(format!("vertex-{compressed}.prtbake"));
+    write_vertex_file(&bake, &path)?;
+    Ok(std::fs::read(&path)?)
+}
+
 fn tiny_bake(
     scenes: &Path,
     out: &Path,
@@ -497,6 +548,9 @@ impl Target for BakeFileTarget {
             tiny_bake(s, &out, "ring", (4, 3), Precision::F16, None)?,
             // Tall enough for several of the runtime's bands of rows.
             tiny_bake(s, &out, "cornell", (3, 20), Precision::F32, None)?,
+            // Per vertex, T1 compressed (clustered Tucker) and dense.
+            tiny_vertex_bake(&out, true)?,
+            tiny_vertex_bake(&out, false)?,
         ];
         seeds.extend(writer_seeds()?);
         for seed in &seeds {
@@ -558,6 +612,11 @@ impl Target for BakeFileTarget {
         if let Err(e) = file.verify_checksums() {
             return Ok(outcome("verify", &e.to_string(), dir));
         }
+        let vertex = prt_formats::vertex::BakeKind::of_metadata(file.metadata())
+            == Some(prt_formats::vertex::BakeKind::Vertex);
+        if vertex {
+            return Ok(relight_vertex(file, dir));
+        }
         drop(file);
 
         // The runtime: open, render both variants, edit every editable material, render again.
@@ -611,4 +670,35 @@ impl Target for BakeFileTarget {
             edits.min(4)
         ))
     }
+}
+
+/// The per-vertex runtime on a (mutated) file: open, render from the baked camera, turn the
+/// light, edit every editable material, render again.
+fn relight_vertex(file: BakeFile, dir: &Path) -> String {
+    use prt_runtime::vertex::VertexRelighter;
+    let mut r = match VertexRelighter::from_file(file) {
+        Ok(r) => r,
+        Err(e) => return outcome("vertex relighter", &e.to_string(), dir),
+    };
+    let camera = r.default_camera();
+    let mut image = vec![0.0f32; 3 * 6 * 5];
+    if let Err(e) = r.render(&camera, 6, 5, &mut image) {
+        return outcome("vertex render", &e.to_string(), dir);
+    }
+    let _ = r.set_environment_rotation(40.0);
+    for m in r.meta().materials.clone() {
+        let _ = r.apply(&MaterialOverride {
+            material: m.name.clone(),
+            value: OverrideValue::Kd([0.9, 0.1, 0.0]),
+        });
+    }
+    let _ = r.vertex_incident(0);
+    if let Err(e) = r.render(&camera, 6, 5, &mut image) {
+        return outcome("vertex render after edits", &e.to_string(), dir);
+    }
+    format!(
+        "ok: vertex relit, {} groups, compressed {}",
+        r.meta().groups.len().min(4),
+        r.meta().groups.iter().any(|g| g.compression.is_some())
+    )
 }
