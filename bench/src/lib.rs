@@ -5,6 +5,7 @@
 //! cargo run --release -p prt-bench -- basis --report docs/brdf-basis.md
 //! cargo run --release -p prt-bench -- rays         ray throughput
 //! cargo run --release -p prt-bench -- container    bake file write/open/verify throughput
+//! cargo run --release -p prt-bench -- vertex       docs/report-vertex.md (per-vertex compression, error, speed)
 //! ```
 //!
 //! Speed is measured here and printed or written into the reports, never asserted in tests.
@@ -16,3 +17,4 @@ pub mod plot;
 pub mod rays;
 pub mod template;
 pub mod util;
+pub mod vertex;

@@ -89,6 +89,10 @@ enum Command {
     /// docs/compare.md): dump a scene's triangles and incoherent bounce rays as raw arrays,
     /// or time our ray core on exactly those rays.
     CompareRays(compare_rays::CompareRaysArgs),
+    /// The per-vertex report: a scene baked dense and with several compression settings,
+    /// errors against the dense relight and the reference, the three runtime paths timed
+    /// (docs/report-vertex.md).
+    Vertex(prt_bench::vertex::VertexArgs),
 }
 
 fn main() -> ExitCode {
@@ -113,6 +117,7 @@ fn run(cli: Cli) -> Result<()> {
         } => pixel(configs, out, img_dir, work_dir, quick, quiet),
         Command::Basis(args) => prt_bench::basis::run(&args),
         Command::CompareRays(args) => compare_rays::run(&args),
+        Command::Vertex(args) => prt_bench::vertex::run(&args),
         Command::Rays { rays, config, json } => {
             let scene = match config {
                 Some(c) => prt_bake::run::load(&c, &prt_bake::progress::Silent)?.1,

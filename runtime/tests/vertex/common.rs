@@ -172,8 +172,11 @@ pub struct Bake {
     pub compress_as_identity: bool,
     /// Changes the cluster of each vertex after the compressed tensors are made (a corrupt
     /// file for the refusal tests).
-    pub tamper_clusters: Option<fn(&mut Vec<u32>)>,
+    pub tamper_clusters: Option<Tamper>,
 }
+
+/// Changes a compressed group's cluster of each vertex ([`Bake::tamper_clusters`]).
+pub type Tamper = fn(&mut Vec<u32>);
 
 /// A dense `[V][bins][width]` tensor as an exact clustered Tucker product (see
 /// [`Bake::compress_as_identity`]): ranks `[K, 3]`, factors, cores, vertex rows `[V, B]`.

@@ -308,7 +308,7 @@ fn corrupt_compressed_groups_are_refused_naming_the_tensor() {
     let path = dir.path().join("good.prtbake");
     good.write(&path);
     VertexRelighter::open(&path).expect("the identity-compressed bake opens");
-    let cases: [(fn(&mut Vec<u32>), &str); 2] = [
+    let cases: [(Tamper, &str); 2] = [
         // Vertex 3 moves to cluster 0: cluster 1 keeps its rank 2 with 1 vertex left.
         (
             |c| c[3] = 0,
