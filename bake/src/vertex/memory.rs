@@ -6,7 +6,9 @@
 //! - **basis builds**, one at a time: a PCA basis (the per-pixel model) or a default shading
 //!   basis (measured);
 //! - **trace and write**: everything the groups store, the largest group's f32 values before
-//!   their conversion to f16, the workers' scratch, the flat copies written to the file.
+//!   their conversion to f16 or their compression, the workers' scratch (or, when larger, the
+//!   compression's cluster blocks), the flat copies written to the file. Compressed, what the
+//!   groups store is bounded by the rank caps (`compressed_bytes`).
 
 use prt_formats::pixel::Precision;
 use prt_formats::vertex::{cube_len, VISIBILITY_CUBE};
@@ -50,12 +52,35 @@ impl VertexPlan {
             .iter()
             .map(|g| self.bytes_per_vertex(g, opts) * g.vertices.len() as u64)
             .collect();
-        let stored: u64 = group_bytes.iter().sum();
+        // Compressed, the dense tensors are never stored: the output is the factors (bounded
+        // by the rank caps), and compressing a group needs its f32 values (below) plus each
+        // thread's cluster block in f64, about three copies of it.
+        let stored: u64 = match &opts.compression {
+            None => group_bytes.iter().sum(),
+            Some(c) => self
+                .groups
+                .iter()
+                .map(|g| self.compressed_bytes(g, c, opts))
+                .sum(),
+        };
+        let compress_work = opts.compression.map_or(0, |c| {
+            let block = self
+                .groups
+                .iter()
+                .map(|g| {
+                    let (_, t1, t2) = self.values_per_vertex(g, g.planned_t0_rows(), opts);
+                    let n = g.vertices.len().min(2 * c.cluster_vertices as usize);
+                    3 * 8 * (n * t1.max(t2)) as u64
+                })
+                .max()
+                .unwrap_or(0);
+            block * threads.max(1) as u64
+        });
         // A group is traced into f32 buffers, converted to its storage, and the f32 freed:
         // with f16 storage the largest group's f32 values are held beside everything stored.
-        let f32_group = match opts.precision {
-            Precision::F32 => 0,
-            Precision::F16 => self
+        let f32_group = match (opts.precision, &opts.compression) {
+            (Precision::F32, None) => 0,
+            _ => self
                 .groups
                 .iter()
                 .map(|g| {
@@ -91,7 +116,8 @@ impl VertexPlan {
         let copies = (scene.positions.len() * 32
             + scene.triangles.len() * 16
             + (env_texels + tex_texels) * 12) as u64;
-        let trace_bytes = stored + f32_group + worker * threads.max(1) as u64 + copies;
+        let trace_bytes =
+            stored + f32_group + (worker * threads.max(1) as u64).max(compress_work) + copies;
         VertexMemoryEstimate {
             bytes: resident_bytes + basis_bytes.max(trace_bytes),
             resident_bytes,
@@ -120,4 +146,40 @@ pub struct VertexMemoryEstimate {
     pub stored_bytes: u64,
     /// Per group, its stored bytes.
     pub group_bytes: Vec<u64>,
+}
+
+impl VertexPlan {
+    /// An upper bound of what group `g` stores when compressed with `c`: T0, the visibility of
+    /// a group with a lobe, the cluster of each vertex, and per compressed tensor its factors,
+    /// cores and vertex rows at the rank caps (clusters of `cluster_vertices`).
+    fn compressed_bytes(
+        &self,
+        g: &super::plan::PlannedGroup,
+        c: &prt_formats::clustered::CompressionSettings,
+        opts: &VertexBakeOptions,
+    ) -> u64 {
+        use prt_formats::vertex::{T1_LIGHT_CUBE, T2_LIGHT_CUBE};
+        let p = super::write::value_bytes(opts.precision) as u64;
+        let v = g.vertices.len() as u64;
+        let (t0, t1, t2) = self.values_per_vertex(g, g.planned_t0_rows(), opts);
+        let clusters = v.div_ceil(u64::from(c.cluster_vertices.max(1)));
+        let b = u64::from(c.max_vertex_rank.min(c.cluster_vertices.saturating_mul(2)));
+        let tucker = |bins: usize, values: usize| -> u64 {
+            if values == 0 {
+                return 0;
+            }
+            let width = (values / bins) as u64;
+            let a = u64::from(c.max_light_rank).min(bins as u64);
+            let r = u64::from(c.max_element_rank).min(width);
+            (clusters * (bins as u64 * a + width * r + b * a * r) + v * b) * p
+        };
+        let visibility = if g.lobe.is_some() {
+            cube_len(VISIBILITY_CUBE) as u64
+        } else {
+            0
+        };
+        v * (8 + t0 as u64 * (2 + p) + visibility)
+            + tucker(cube_len(T1_LIGHT_CUBE), t1)
+            + tucker(cube_len(T2_LIGHT_CUBE), t2)
+    }
 }
