@@ -56,47 +56,51 @@ struct Setting {
     light_rank: Option<u32>,
 }
 
-const fn setting(name: &'static str, compress: bool) -> Setting {
-    Setting {
-        name,
-        compress,
-        cluster_vertices: None,
-        compress_error: None,
-        vertex_rank: None,
-        light_rank: None,
-    }
-}
+/// The sweep: each knob of docs/vertex.md section 7 moved once from its default
+/// (name, compress, cluster_vertices, compress_error, vertex_rank, light_rank).
+type Knobs = (
+    &'static str,
+    bool,
+    Option<u32>,
+    Option<f32>,
+    Option<u32>,
+    Option<u32>,
+);
+const SWEEP: [Knobs; 8] = [
+    ("dense", false, None, None, None, None),
+    ("defaults", true, None, None, None, None),
+    (
+        "256 vertices per cluster",
+        true,
+        Some(256),
+        None,
+        None,
+        None,
+    ),
+    ("64 vertices per cluster", true, Some(64), None, None, None),
+    ("error target 5 %", true, None, Some(0.05), None, None),
+    ("error target 20 %", true, None, Some(0.2), None, None),
+    ("vertex rank 16", true, None, None, Some(16), None),
+    ("light rank 32", true, None, None, None, Some(32)),
+];
 
 fn settings(quick: bool) -> Vec<Setting> {
-    let mut v = vec![setting("dense", false), setting("defaults", true)];
-    if quick {
-        return v;
-    }
-    v.push(Setting {
-        cluster_vertices: Some(256),
-        ..setting("256 vertices per cluster", true)
-    });
-    v.push(Setting {
-        cluster_vertices: Some(64),
-        ..setting("64 vertices per cluster", true)
-    });
-    v.push(Setting {
-        compress_error: Some(0.05),
-        ..setting("error target 5 %", true)
-    });
-    v.push(Setting {
-        compress_error: Some(0.2),
-        ..setting("error target 20 %", true)
-    });
-    v.push(Setting {
-        vertex_rank: Some(16),
-        ..setting("vertex rank 16", true)
-    });
-    v.push(Setting {
-        light_rank: Some(32),
-        ..setting("light rank 32", true)
-    });
-    v
+    let n = if quick { 2 } else { SWEEP.len() };
+    SWEEP[..n]
+        .iter()
+        .map(
+            |&(name, compress, cluster_vertices, compress_error, vertex_rank, light_rank)| {
+                Setting {
+                    name,
+                    compress,
+                    cluster_vertices,
+                    compress_error,
+                    vertex_rank,
+                    light_rank,
+                }
+            },
+        )
+        .collect()
 }
 
 /// A light of the comparison: None is the baked environment.

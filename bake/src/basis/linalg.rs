@@ -274,6 +274,12 @@ pub fn matmul_into(c: MatMut<'_, f64>, accum: Accum, a: MatRef<'_, f64>, b: MatR
 /// sign-fixed by [`fix_sign`].
 pub fn leading_eigvecs(g: MatRef<'_, f64>, r: usize) -> Result<Mat<f64>, BasisError> {
     let (_, v) = sym_eig_desc(g)?;
+    Ok(sign_fixed_columns(v.as_ref(), r))
+}
+
+/// The first `r` columns of `v`, each sign-fixed by [`fix_sign`] (for eigenvectors from
+/// [`sym_eig_desc`] when the eigenvalues decide `r`).
+pub fn sign_fixed_columns(v: MatRef<'_, f64>, r: usize) -> Mat<f64> {
     let r = r.min(v.ncols());
     let mut u = Mat::<f64>::zeros(v.nrows(), r);
     let mut col = vec![0.0; v.nrows()];
@@ -286,7 +292,7 @@ pub fn leading_eigvecs(g: MatRef<'_, f64>, r: usize) -> Result<Mat<f64>, BasisEr
             u[(i, c)] = x;
         }
     }
-    Ok(u)
+    u
 }
 
 /// Leading `r` left singular vectors of `w` (`m x n`), sign-fixed by [`fix_sign`]: the leading

@@ -135,6 +135,10 @@ mod tests {
         assert_eq!((v.secondary(), v.t0_terms()), (8, 24576));
         let d = VertexConfig::default();
         assert_eq!((d.secondary(), d.t0_terms(), d.light_bins()), (4, 96, true));
+        assert_eq!(d.compression(), Some(crate::vertex::default_compression()));
+        let off =
+            parse("scene = \"x.gltf\"\nmode = \"vertex\"\n[vertex]\ncompress = false").unwrap();
+        assert_eq!(off.vertex.unwrap().compression(), None);
         for (body, key) in [
             (
                 "mode = \"vertex\"\n[vertex]\nsecondary = 0",
@@ -158,6 +162,35 @@ mod tests {
                 "light_bins",
             ),
             ("mode = \"vertex\"\n[vertex]\nlight_bins = 1", "light_bins"),
+            (
+                "mode = \"vertex\"\n[vertex]\ncompress_error = 1.0",
+                "vertex.compress_error",
+            ),
+            (
+                "mode = \"vertex\"\n[vertex]\ncompress_error = -0.1",
+                "vertex.compress_error",
+            ),
+            (
+                "mode = \"vertex\"\n[vertex]\ncompress_error = nan",
+                "vertex.compress_error",
+            ),
+            (
+                "mode = \"vertex\"\n[vertex]\ncluster_vertices = 0",
+                "vertex.cluster_vertices",
+            ),
+            (
+                "mode = \"vertex\"\n[vertex]\nlight_rank = 385",
+                "vertex.light_rank",
+            ),
+            (
+                "mode = \"vertex\"\n[vertex]\nelement_rank = 0",
+                "vertex.element_rank",
+            ),
+            (
+                "mode = \"vertex\"\n[vertex]\nvertex_rank = 0",
+                "vertex.vertex_rank",
+            ),
+            ("mode = \"vertex\"\n[vertex]\ncompress = \"no\"", "compress"),
             ("[vertex]\nsecondary = 3", "mode = \"vertex\""),
         ] {
             let e = parse(&format!("scene = \"x.gltf\"\n{body}"))

@@ -21,7 +21,7 @@ use prt_formats::pixel::Precision;
 use prt_formats::vertex::{cube_len, SH_TERMS, T1_LIGHT_CUBE, T2_LIGHT_CUBE};
 use rayon::prelude::*;
 
-use crate::basis::linalg::{fix_sign, matmul, matmul_tn, sym_eig_desc};
+use crate::basis::linalg::{matmul, matmul_tn, sign_fixed_columns, sym_eig_desc};
 use crate::scene::Scene;
 
 use super::cluster::cluster_vertices;
@@ -276,24 +276,13 @@ fn rank_for(vals: &[f64], budget: f64, cap: usize) -> (usize, f64) {
     (r, rest.max(0.0))
 }
 
-/// Leading `r` eigenvectors (sign-fixed) of a Gram matrix and the eigenvalues.
+/// The leading eigenvectors (sign-fixed) of a Gram matrix that [`rank_for`] keeps, and the
+/// energy discarded.
 fn leading(g: &Mat<f64>, budget: f64, cap: usize) -> Result<(Mat<f64>, f64), VertexError> {
     let (vals, vecs) =
         sym_eig_desc(g.as_ref()).map_err(|e| VertexError::Compression(e.to_string()))?;
     let (r, discarded) = rank_for(&vals, budget, cap);
-    let dim = g.nrows();
-    let mut u = Mat::<f64>::zeros(dim, r);
-    let mut col = vec![0.0; dim];
-    for c in 0..r {
-        for (i, x) in col.iter_mut().enumerate() {
-            *x = vecs[(i, c)];
-        }
-        fix_sign(&mut col);
-        for (i, &x) in col.iter().enumerate() {
-            u[(i, c)] = x;
-        }
-    }
-    Ok((u, discarded))
+    Ok((sign_fixed_columns(vecs.as_ref(), r), discarded))
 }
 
 /// ST-HOSVD of one cluster's block `x` (`[n][bins][width]`), see the module documentation.
@@ -378,6 +367,7 @@ fn tucker_block(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use prt_formats::clustered::TuckerLayout;
 
     fn settings(target: f32, caps: [u32; 3]) -> CompressionSettings {
         CompressionSettings {
@@ -391,32 +381,15 @@ mod tests {
 
     /// The dense tensor the compressed one stands for (the layout's formula).
     fn expand(c: &CompressedTensor, clusters: &[u32], bins: usize, width: usize) -> Vec<f32> {
-        let k = c.ranks.len() / 3;
-        let (mut fat, mut cat) = (vec![0; k], vec![0; k]);
-        let (mut f, mut co) = (0, 0);
-        for i in 0..k {
-            let (a, r, b) = (
-                c.ranks[3 * i] as usize,
-                c.ranks[3 * i + 1] as usize,
-                c.ranks[3 * i + 2] as usize,
-            );
-            fat[i] = f;
-            cat[i] = co;
-            f += bins * a + width * r;
-            co += b * a * r;
-        }
-        let bw = c.figures.vertex_rank as usize;
+        let layout = TuckerLayout::new(&c.ranks, bins, width).expect("layout");
+        let bw = layout.vertex_rank;
         let mut out = Vec::new();
         for (v, &cl) in clusters.iter().enumerate() {
             let cl = cl as usize;
-            let (a, r, b) = (
-                c.ranks[3 * cl] as usize,
-                c.ranks[3 * cl + 1] as usize,
-                c.ranks[3 * cl + 2] as usize,
-            );
-            let light = &c.factors[fat[cl]..fat[cl] + bins * a];
-            let elem = &c.factors[fat[cl] + bins * a..fat[cl] + bins * a + width * r];
-            let core = &c.core[cat[cl]..cat[cl] + b * a * r];
+            let [a, r, b] = layout.ranks[cl];
+            let light = &c.factors[layout.factor_at[cl]..][..bins * a];
+            let elem = &c.factors[layout.factor_at[cl] + bins * a..][..width * r];
+            let core = &c.core[layout.core_at[cl]..][..b * a * r];
             let u = &c.vertex[v * bw..v * bw + b];
             for l in 0..bins {
                 for w in 0..width {

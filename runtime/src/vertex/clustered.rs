@@ -60,15 +60,6 @@ pub(super) struct ClusterLight {
     pub per_cluster: Vec<f32>,
 }
 
-/// Reads a stored tensor as f32 (f16 converted).
-fn read_f32(file: &BakeFile, name: &str) -> Result<Vec<f32>, RuntimeError> {
-    let t = file.tensor(name)?;
-    Ok(match t.dtype() {
-        Dtype::F16 => t.as_f16()?.iter().map(|h| h.to_f32()).collect(),
-        _ => t.as_f32()?.to_vec(),
-    })
-}
-
 /// The light stage of compressed tensor `tensor` ("t1" or "t2") of group `g`: `c` holds one
 /// RGB triple per light bin, `channels` is the tensor's (1 or 3), `elements` its elements per
 /// channel.
@@ -282,7 +273,7 @@ pub(super) fn validate_group(
                 )));
             }
         }
-        let read = |part| read_f32(file, &names::tucker(g, tensor, part));
+        let read = |part| file.tensor(&names::tucker(g, tensor, part))?.to_f32_vec();
         Ok(CompressedTensor {
             rows_at,
             rows,

@@ -403,26 +403,24 @@ pub(super) fn material_stage(
                     if let (Some(m2), Some(t2)) = (m2, &comp.t2) {
                         expand_vertex(t2, m2, 3, k, v, &mut i2);
                     }
-                }
-                // I1[s] = sum_j c_j L1[j][s] (dense; empty when compressed).
-                let l1 = light
-                    .l1
-                    .get(v * nj * SH_COUNT * 3..(v + 1) * nj * SH_COUNT * 3)
-                    .unwrap_or(&[]);
-                for (lj, c) in l1.chunks_exact(SH_COUNT * 3).zip(&cj) {
-                    for (acc, x) in i1.iter_mut().zip(lj.chunks_exact(3)) {
-                        acc[0] += c[0] * x[0];
-                        acc[1] += c[1] * x[1];
-                        acc[2] += c[2] * x[2];
+                } else {
+                    // I1[s] = sum_j c_j L1[j][s].
+                    let l1 = &light.l1[v * nj * SH_COUNT * 3..][..nj * SH_COUNT * 3];
+                    for (lj, c) in l1.chunks_exact(SH_COUNT * 3).zip(&cj) {
+                        for (acc, x) in i1.iter_mut().zip(lj.chunks_exact(3)) {
+                            acc[0] += c[0] * x[0];
+                            acc[1] += c[1] * x[1];
+                            acc[2] += c[2] * x[2];
+                        }
                     }
-                }
-                // I2 = sum_(j,i) c_j c_i L2[j][i].
-                if !light.l2.is_empty() {
-                    let l2 = &light.l2[v * nj * n_i * 3..][..nj * n_i * 3];
-                    for (lj, a) in l2.chunks_exact((n_i * 3).max(1)).zip(&cj) {
-                        for (x, b) in lj.chunks_exact(3).zip(&ci) {
-                            for ch in 0..3 {
-                                i2[ch] += a[ch] * b[ch] * x[ch];
+                    // I2 = sum_(j,i) c_j c_i L2[j][i].
+                    if !light.l2.is_empty() {
+                        let l2 = &light.l2[v * nj * n_i * 3..][..nj * n_i * 3];
+                        for (lj, a) in l2.chunks_exact((n_i * 3).max(1)).zip(&cj) {
+                            for (x, b) in lj.chunks_exact(3).zip(&ci) {
+                                for ch in 0..3 {
+                                    i2[ch] += a[ch] * b[ch] * x[ch];
+                                }
                             }
                         }
                     }

@@ -5,6 +5,7 @@ use std::sync::Mutex;
 use glam::Vec3;
 
 use super::*;
+use prt_formats::clustered::CompressionSettings;
 use prt_formats::vertex::{names, VertexBakeMeta};
 use prt_formats::BakeFile;
 
@@ -189,4 +190,60 @@ fn the_file_holds_the_schema() {
         .t0_truncation_error
         .iter()
         .all(|e| (0.0..0.5).contains(e)));
+}
+
+#[test]
+fn unusable_compression_settings_are_refused_naming_the_key() {
+    let base = crate::vertex::default_compression();
+    for (settings, key) in [
+        (
+            CompressionSettings {
+                error_target: 1.0,
+                ..base
+            },
+            "vertex.compress_error",
+        ),
+        (
+            CompressionSettings {
+                error_target: f32::NAN,
+                ..base
+            },
+            "vertex.compress_error",
+        ),
+        (
+            CompressionSettings {
+                cluster_vertices: 0,
+                ..base
+            },
+            "vertex.cluster_vertices",
+        ),
+        (
+            CompressionSettings {
+                max_light_rank: 0,
+                ..base
+            },
+            "vertex.light_rank",
+        ),
+        (
+            CompressionSettings {
+                max_element_rank: 0,
+                ..base
+            },
+            "vertex.element_rank",
+        ),
+        (
+            CompressionSettings {
+                max_vertex_rank: 0,
+                ..base
+            },
+            "vertex.vertex_rank",
+        ),
+    ] {
+        let opts = VertexBakeOptions {
+            compression: Some(settings),
+            ..Default::default()
+        };
+        let e = opts.validate().unwrap_err().to_string();
+        assert!(e.contains(key), "expected {key} in: {e}");
+    }
 }
