@@ -316,6 +316,11 @@ pub struct VertexRunSettings {
     pub basis_count: Option<usize>,
     /// Checkpoints (default: none).
     pub checkpoint: CheckpointMode,
+    /// Leave the checkpoint in place once the file is written (default: removed). It holds the
+    /// traced waves before compression, and the `[vertex]` compression keys are not part of
+    /// its fingerprint: a later [`CheckpointMode::Resume`] run with other compression keys
+    /// compresses again without tracing a ray.
+    pub keep_checkpoint: bool,
 }
 
 /// What a per-vertex bake did, for the CLI's summary and `--json`.
@@ -434,7 +439,7 @@ pub fn run_vertex(
     )?;
     let file_bytes = vertex::write_vertex_file(&bake, &output)?;
     // Only once the output is in place: a kill before this point resumes from the checkpoint.
-    if let Some(c) = checkpoint {
+    if let Some(c) = checkpoint.filter(|_| !s.keep_checkpoint) {
         let dir = c.dir().to_path_buf();
         if let Err(e) = c.remove() {
             progress.warn(&format!(

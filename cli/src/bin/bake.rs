@@ -6,7 +6,8 @@
 //!
 //! The config's `mode` picks the baker: per pixel (`run_pixel`) or per vertex (`run_vertex`;
 //! `--spp` is then N1, the directions traced from each vertex). A per-vertex bake saves its
-//! traced vertices in `<output>.partial/` as it goes; `--resume` continues a killed one.
+//! traced vertices in `<output>.partial/` as it goes; `--resume` continues a killed one, and
+//! with `--keep-checkpoint` recompresses a finished one with other `[vertex]` compression keys.
 //!
 //! Measurements and reports are the `bench` binary's (crate `prt-bench`).
 
@@ -87,6 +88,11 @@ struct BakeArgs {
     /// space, about the f32 size of the transfer tensors; a killed bake then starts over).
     #[arg(long)]
     no_checkpoint: bool,
+    /// Keep a per-vertex bake's checkpoint after the file is written. The checkpoint holds the
+    /// traced vertices before compression and its inputs leave out the `[vertex]` compression
+    /// keys, so `--resume` with other compression keys then recompresses without tracing.
+    #[arg(long, conflicts_with = "no_checkpoint")]
+    keep_checkpoint: bool,
     /// No progress or allocation report on stderr.
     #[arg(long)]
     quiet: bool,
@@ -143,7 +149,11 @@ fn bake_pixel(
     precision: Option<Precision>,
     progress: &Stderr,
 ) -> Result<()> {
-    for (given, flag) in [(a.resume, "--resume"), (a.no_checkpoint, "--no-checkpoint")] {
+    for (given, flag) in [
+        (a.resume, "--resume"),
+        (a.no_checkpoint, "--no-checkpoint"),
+        (a.keep_checkpoint, "--keep-checkpoint"),
+    ] {
         if given {
             bail!(
                 "{flag} applies to per-vertex bakes (a per-pixel bake keeps no checkpoint); {} \
@@ -211,6 +221,7 @@ fn bake_vertex(
         max_memory: a.max_memory,
         basis_count: a.basis_count,
         checkpoint,
+        keep_checkpoint: a.keep_checkpoint,
     };
     let summary = run_vertex(config, scene, &settings, progress)?;
     if a.json {

@@ -165,3 +165,47 @@ fn a_killed_vertex_bake_resumes_to_the_same_bytes_and_refuses_other_inputs() {
         "the resumed file differs from byte {first:?} on"
     );
 }
+
+#[test]
+fn a_kept_checkpoint_recompresses_with_other_compression_keys_without_tracing() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let config = diffuse_vitrine(dir.path());
+    let kept = dir.path().join("kept.prtbake");
+    let checkpoint = dir.path().join("kept.prtbake.partial");
+    bake(&[s(&config), "--out", s(&kept), "--keep-checkpoint"], "2");
+    assert!(
+        checkpoint.exists(),
+        "--keep-checkpoint removed the checkpoint"
+    );
+    let first = std::fs::read(&kept).expect("first bake");
+
+    // Other compression keys: not part of the checkpoint's inputs.
+    let other = config.with_file_name("other.toml");
+    let text = std::fs::read_to_string(&config).expect("config");
+    std::fs::write(
+        &other,
+        format!("{text}\n[vertex]\ncompress_error = 0.3\ncluster_vertices = 64\n"),
+    )
+    .expect("write config");
+    let fresh = dir.path().join("fresh.prtbake");
+    bake(&[s(&other), "--out", s(&fresh), "--no-checkpoint"], "2");
+    let want = std::fs::read(&fresh).expect("fresh bake");
+    assert_ne!(want, first, "the compression keys changed nothing");
+
+    // Resumed on one thread: every vertex comes from the checkpoint, the bytes are a fresh
+    // bake's with the new keys, and the checkpoint goes once the file is written.
+    let log = bake(&[s(&other), "--out", s(&kept), "--resume"], "1");
+    assert!(
+        log.contains("3106 of 3106 vertices already traced"),
+        "the resume traced again: {log}"
+    );
+    assert_eq!(
+        std::fs::read(&kept).expect("recompressed bake"),
+        want,
+        "recompressing from the checkpoint differs from a fresh bake"
+    );
+    assert!(
+        !checkpoint.exists(),
+        "the checkpoint outlived a bake without --keep-checkpoint"
+    );
+}
