@@ -12,6 +12,7 @@
 
 pub mod basis;
 pub mod container;
+pub mod pictures;
 pub mod pixel;
 pub mod plot;
 pub mod rays;

@@ -98,3 +98,18 @@ pub fn link(from: &Path, target: &Path) -> String {
         Err(_) => t.to_string_lossy().into_owned(),
     }
 }
+
+/// Resets this process's peak resident set (Linux: `/proc/self/clear_refs`), so that
+/// [`peak_resident_bytes`] measures from now; false where that is not possible.
+pub fn reset_peak_resident() -> bool {
+    std::fs::write("/proc/self/clear_refs", "5").is_ok()
+}
+
+/// This process's peak resident set since it started or since [`reset_peak_resident`]
+/// (Linux `VmHWM`), if known.
+pub fn peak_resident_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}

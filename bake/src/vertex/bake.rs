@@ -35,8 +35,11 @@ pub const WAVE_VERTICES: usize = 512;
 /// Wall-clock figures of a per-vertex bake (not stored in the file).
 #[derive(Clone, Copy, Debug, Default, serde::Serialize)]
 pub struct VertexTimings {
-    /// The trace (T0, T1, T2 of every vertex), Haar truncation and conversion included.
+    /// The trace (T0, T1, T2 of every vertex; reading the checkpoint's waves instead when
+    /// resuming), Haar truncation and conversion included, compression not.
     pub trace_seconds: f64,
+    /// Clustering and compressing T1 and T2 (0 for a dense bake).
+    pub compress_seconds: f64,
     /// The whole bake call.
     pub bake_seconds: f64,
     /// Vertices traced per second of tracing (those restored from a checkpoint left out).
@@ -109,6 +112,7 @@ pub fn bake_vertex_checkpointed(
     let mut trace_rays = 0u64;
     // Waves taken from the checkpoint: left out of the timings' rates.
     let (mut restored_vertices, mut restored_rays) = (0usize, 0u64);
+    let mut compress_seconds = 0.0;
     for (gi, g) in plan.groups.iter().enumerate() {
         let mut buf = GroupBuffers::default();
         for (wi, wave) in g.vertices.chunks(WAVE_VERTICES).enumerate() {
@@ -159,6 +163,7 @@ pub fn bake_vertex_checkpointed(
                     channels: plan.slots.channels,
                     reflections: opts.reflections,
                 };
+                let compress_start = Instant::now();
                 let c = compress_group(
                     scene,
                     &plan.normals,
@@ -169,6 +174,7 @@ pub fn bake_vertex_checkpointed(
                     settings,
                     opts.precision,
                 )?;
+                compress_seconds += compress_start.elapsed().as_secs_f64();
                 if let Some(p) = progress {
                     p.note(&format!(
                         "compressed {}: {}",
@@ -220,7 +226,7 @@ pub fn bake_vertex_checkpointed(
     }
     drop(stage);
     rays += trace_rays;
-    let trace_seconds = start.elapsed().as_secs_f64();
+    let trace_seconds = start.elapsed().as_secs_f64() - compress_seconds;
 
     let (bases_meta, basis_tables) = persisted(&layout);
     let shading_meta = used_shading
@@ -276,6 +282,7 @@ pub fn bake_vertex_checkpointed(
         meta,
         timings: VertexTimings {
             trace_seconds,
+            compress_seconds,
             bake_seconds: start.elapsed().as_secs_f64(),
             vertices_per_second: traced_vertices / trace_seconds.max(1e-9),
             rays_per_second: traced_rays / trace_seconds.max(1e-9),

@@ -390,12 +390,12 @@ pub fn run(opts: &ReportOptions) -> Result<ReportSummary> {
                 }
                 if si == 0 {
                     // 4. Side-by-side pictures of the main scene.
-                    exposure = plots::auto_exposure(&refs[0].0);
+                    exposure = crate::pictures::auto_exposure(&refs[0].0);
                     for ((s, img), r) in ctx.settings.iter().zip(&imgs).zip(&refs).take(3) {
                         let file =
                             opts.img_dir
                                 .join(format!("pixel-side-{}-{}.png", ctx.name, s.slug()));
-                        plots::side_by_side(img, &r.0, n, n, exposure, &file)?;
+                        crate::pictures::side_by_side(img, &r.0, n, n, exposure, &file)?;
                         pictures.push((s.label.clone(), s.describe(), file));
                     }
                 }

@@ -1,0 +1,219 @@
+//! What the report measures of each bake: its images under two lights against the reference
+//! tracer (and against the scene's dense bake), and the three runtime paths' frame times in
+//! interleaved rounds.
+
+use std::path::Path;
+
+use anyhow::{Context as _, Result};
+use prt_bake::config::{BakeConfig, EnvironmentConfig};
+use prt_bake::metrics::relative_l2;
+use prt_bake::scene::Scene;
+use prt_runtime::vertex::{RenderStats, VertexRelighter};
+
+use crate::util::median;
+
+/// A light of the comparison: `map: None` is the baked environment.
+pub(crate) struct Light {
+    pub name: &'static str,
+    pub slug: &'static str,
+    pub map: Option<(&'static str, f32)>,
+}
+
+pub(crate) const LIGHTS: [Light; 2] = [
+    Light {
+        name: "baked light",
+        slug: "baked",
+        map: None,
+    },
+    Light {
+        name: "studio turned 120",
+        slug: "studio-120",
+        map: Some(("scenes/envmaps/studio.exr", 120.0)),
+    },
+];
+
+pub(crate) type Image = Vec<[f32; 3]>;
+
+/// The intensity the config lights its map with (the turned studio map uses it too).
+pub(crate) fn map_intensity(config: &BakeConfig) -> f32 {
+    match &config.environment {
+        EnvironmentConfig::Map { intensity, .. } => *intensity,
+        EnvironmentConfig::Color(_) => 1.0,
+    }
+}
+
+/// The relighter of `path` lit by `light` at `intensity`.
+pub(crate) fn lit(path: &Path, light: &Light, intensity: f32) -> Result<VertexRelighter> {
+    let mut r =
+        VertexRelighter::open(path).with_context(|| format!("opening {}", path.display()))?;
+    if let Some((map, rotation)) = light.map {
+        let (env, _) = prt_formats::envmap::load_latlong(Path::new(map), intensity)
+            .with_context(|| format!("loading {map}"))?;
+        r.set_environment(env, rotation)?;
+    }
+    Ok(r)
+}
+
+/// One square frame from the bake's camera.
+pub(crate) fn render(r: &mut VertexRelighter, size: u32) -> Result<(Image, RenderStats)> {
+    let camera = r.default_camera();
+    let mut out = vec![0.0f32; 3 * (size * size) as usize];
+    let stats = r.render(&camera, size, size, &mut out)?;
+    Ok((
+        out.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect(),
+        stats,
+    ))
+}
+
+/// The reference tracer's image of `scene` under each light (true BRDFs, the config's
+/// reflections and seed).
+pub(crate) fn references(
+    config: &BakeConfig,
+    scene: &Scene,
+    size: u32,
+    spp: u32,
+) -> Result<Vec<Image>> {
+    let mut out = Vec::new();
+    for light in &LIGHTS {
+        eprintln!("reference: {} at {spp} spp", light.name);
+        let mut sc = scene.clone();
+        if let Some((map, rotation)) = light.map {
+            sc.environment =
+                prt_bake::scene::envmap::load_latlong(Path::new(map), map_intensity(config))?.0;
+            sc.environment_rotation = rotation;
+        }
+        let r = prt_bake::reference::render_true(
+            &sc,
+            config.reflections as usize,
+            size,
+            size,
+            spp,
+            config.seed,
+            None,
+        );
+        out.push(r.pixels.iter().map(|p| p.to_array()).collect());
+    }
+    Ok(out)
+}
+
+/// A bake's images and their errors, per light.
+pub(crate) struct Errors {
+    /// Per light: relative L2 against the reference.
+    pub vs_reference: Vec<f64>,
+    /// Per light: relative L2 against the dense bake's relight (NaN without one).
+    pub vs_dense: Vec<f64>,
+    /// Per light: the image.
+    pub images: Vec<Image>,
+}
+
+/// Relights every bake under every light and compares; `dense` is the index of the dense bake.
+pub(crate) fn errors(
+    bakes: &[&Path],
+    dense: Option<usize>,
+    references: &[Image],
+    intensity: f32,
+    size: u32,
+) -> Result<Vec<Errors>> {
+    let mut out: Vec<Errors> = bakes
+        .iter()
+        .map(|_| Errors {
+            vs_reference: Vec::new(),
+            vs_dense: Vec::new(),
+            images: Vec::new(),
+        })
+        .collect();
+    for (li, light) in LIGHTS.iter().enumerate() {
+        for (b, e) in bakes.iter().zip(out.iter_mut()) {
+            let img = render(&mut lit(b, light, intensity)?, size)?.0;
+            e.vs_reference.push(relative_l2(&img, &references[li]));
+            e.images.push(img);
+        }
+        let base = dense.map(|d| out[d].images[li].clone());
+        for e in out.iter_mut() {
+            let d = base
+                .as_ref()
+                .map_or(f64::NAN, |b| relative_l2(&e.images[li], b));
+            e.vs_dense.push(d);
+        }
+    }
+    Ok(out)
+}
+
+/// Median frame times (seconds) of the three paths, and the view stage's rasterization.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PathTimes {
+    pub view: f64,
+    pub view_brdf: f64,
+    pub view_brdf_light: f64,
+    /// The rasterization part of `view`.
+    pub raster: f64,
+    /// The light stage alone (in the view + BRDF + light frames).
+    pub light: f64,
+    /// The material stage alone (in the view + BRDF frames).
+    pub material: f64,
+}
+
+/// Times the three paths of every bake in `rounds` interleaved rounds (per round, each bake
+/// renders a view-only frame, a material edit, then a light turn with a material edit).
+pub(crate) fn time_paths(
+    bakes: &[&Path],
+    edit_material: &str,
+    intensity: f32,
+    size: u32,
+    rounds: usize,
+) -> Result<Vec<PathTimes>> {
+    let mut relighters = bakes
+        .iter()
+        .map(|p| lit(p, &LIGHTS[0], intensity))
+        .collect::<Result<Vec<_>>>()?;
+    for r in relighters.iter_mut() {
+        render(r, size)?;
+    }
+    let edit = |k: usize| {
+        prt_formats::parse_override(&format!(
+            "{edit_material}.kd={},0.3,0.2",
+            0.3 + 0.1 * (k % 5) as f32
+        ))
+    };
+    let mut samples = vec![[(); 6].map(|_| Vec::new()); bakes.len()];
+    for round in 0..rounds {
+        eprintln!("timing round {} of {rounds}", round + 1);
+        for (r, t) in relighters.iter_mut().zip(samples.iter_mut()) {
+            let (_, s) = render(r, size)?;
+            t[0].push(s.view_s);
+            t[3].push(s.raster_s);
+            r.apply(&edit(round)?)?;
+            let (_, s) = render(r, size)?;
+            let material = s.material_s.unwrap_or(0.0);
+            t[1].push(material + s.view_s);
+            t[5].push(material);
+            r.set_environment_rotation(10.0 * (round + 1) as f32)?;
+            r.apply(&edit(round + 1)?)?;
+            let (_, s) = render(r, size)?;
+            let light = s.light_s.unwrap_or(0.0);
+            t[2].push(light + s.material_s.unwrap_or(0.0) + s.view_s);
+            t[4].push(light);
+        }
+    }
+    Ok(samples
+        .iter()
+        .map(|t| PathTimes {
+            view: median(&t[0]),
+            view_brdf: median(&t[1]),
+            view_brdf_light: median(&t[2]),
+            raster: median(&t[3]),
+            light: median(&t[4]),
+            material: median(&t[5]),
+        })
+        .collect())
+}
+
+/// The first editable material of the config (the one the timings edit).
+pub(crate) fn editable_material(config: &BakeConfig) -> String {
+    config
+        .materials
+        .iter()
+        .find(|(_, m)| m.editable)
+        .map(|(n, _)| n.clone())
+        .unwrap_or_default()
+}
