@@ -808,6 +808,94 @@ kd = [0.8, 0.4, 0.18]
 """)
 
 
+def atrium(bunny_js):
+    """The gallery at the size of the thesis' largest per-vertex scene (131.1K vertices): a
+    larger floor and a back wall, a bigger glossy knot, the diffuse bunny and a second,
+    non-editable bunny (a stone statue), 130 300 vertices. Every group stays below 36K
+    vertices, because a group's dense tensors are held in memory until it is compressed."""
+    folder = os.path.join(HERE, "atrium")
+    os.makedirs(folder, exist_ok=True)
+    g = Gltf()
+    floor_mat = g.material("floor", (0.6, 0.6, 0.6))
+    wall_mat = g.material("wall", (0.7, 0.68, 0.62))
+    knot_mat = g.material("knot", (0.05, 0.12, 0.35), metallic=0.0, roughness=0.3873)
+    bunny_mat = g.material("bunny", (0.8, 0.4, 0.18))
+    stone_mat = g.material("stone", (0.55, 0.55, 0.5))
+
+    # Floor: 2.4 m square, 188 x 188 grid (1.28 cm spacing): 35 721 vertices.
+    F, nf = 1.2, 188
+    floor = MeshData()
+    grid_quad(floor, (-F, 0, F), (2 * F, 0, 0), (0, 0, -2 * F), nf, nf, (0, 1, 0))
+    g.node("floor", mesh=g.mesh("floor", [(floor, floor_mat, True)]))
+
+    # Back wall: 2.4 x 1.2 m at z = -1.2 facing +Z, 100 x 50 grid: 5 151 vertices.
+    wall = MeshData()
+    grid_quad(wall, (-F, 0, -F), (2 * F, 0, 0), (0, 1.2, 0), 100, 50, (0, 0, 1))
+    g.node("wall", mesh=g.mesh("wall", [(wall, wall_mat, True)]))
+
+    # Torus knot (2, 3) twice the gallery's: 0.18 m, 6.4 cm tube, 640 x 48 = 30 720 vertices.
+    knot = torus_knot(2, 3, 0.18, 0.064, 640, 48)
+    knot.positions = [(-p[1], p[0], p[2]) for p in knot.positions]
+    knot.normals = [(-n[1], n[0], n[2]) for n in knot.normals]
+    knot_lift = -min(p[1] for p in knot.positions) - 0.001
+    g.node("knot", mesh=g.mesh("knot", [(knot, knot_mat, True)]),
+           translation=[-0.45, knot_lift, -0.05], rotation=y_rotation_quaternion(25.0))
+
+    # Two bunnies, two levels of Loop subdivision each (29 354 vertices): the editable diffuse
+    # one 0.5 m tall, and a 0.4 m stone statue behind, turned away.
+    positions, indices = load_bunny(bunny_js)
+    for _ in range(2):
+        positions, indices = loop_subdivide(positions, indices)
+    normals = smooth_normals(positions, indices)
+    for name, mat, scale, where, turn in [
+            ("bunny", bunny_mat, 0.052, (0.45, 0.15), -30.0),
+            ("statue", stone_mat, 0.042, (0.05, -0.65), 160.0)]:
+        md = MeshData()
+        md.positions = [mul(p, scale) for p in positions]
+        md.normals = normals
+        md.indices = indices
+        lift = -min(p[1] for p in md.positions) - 0.001
+        g.node(name, mesh=g.mesh(name, [(md, mat, True)]),
+               translation=[where[0], lift, where[1]], rotation=y_rotation_quaternion(turn))
+
+    g.camera("camera", (0.0, 0.85, 2.1), (0.0, 0.25, -0.2), 40.0, aspect=1.0)
+    g.write_gltf(folder, "atrium")
+    write_text(os.path.join(folder, "bake.toml"), """\
+# Atrium: the gallery at the size of the thesis' largest per-vertex scene (130 300 vertices;
+# scenes/generate.py): a glossy torus knot and a diffuse bunny (editable), a stone bunny, a
+# floor and a back wall, lit only by the studio environment map.
+#
+# For the per-vertex report's larger scene (docs/report-vertex.md). Compressed (the default) the
+# file is a few hundred MB; the bake holds one group's dense tensors at a time (the floor's,
+# the largest), so it needs about as much memory as the gallery's although it has nearly three
+# times the vertices; the allocation report says how much before tracing. N1 = 32 directions
+# per vertex (half the gallery's) keeps the bake near a quarter of an hour on two cores.
+scene = "atrium.gltf"
+mode = "vertex"
+width = 160
+height = 160
+spp = 32
+reflections = 2
+seed = 0
+
+[environment]
+map = "../envmaps/studio.exr"
+intensity = 0.25
+
+[materials.knot]
+editable = true
+family = "ggx"
+kd = [0.05, 0.12, 0.35]
+ks = 0.5
+alpha = 0.15
+
+[materials.bunny]
+editable = true
+family = "diffuse"
+kd = [0.8, 0.4, 0.18]
+""")
+
+
 def vitrine(bunny_js):
     """The per-vertex mode's test scene, small enough to bake in seconds: a glossy sphere and a
     diffuse bunny (its native 1 839 vertices) on a floor, lit by a lat-long environment map.
@@ -884,10 +972,10 @@ kd = [0.8, 0.4, 0.18]
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("scenes", nargs="*", default=["cornell", "ring", "furnace", "gallery", "vitrine"])
+    ap.add_argument("scenes", nargs="*", default=["cornell", "ring", "furnace", "gallery", "vitrine", "atrium"])
     ap.add_argument("--bunny", help="index.js of the npm package `bunny` (default: reuse the "
                                     "bunny committed in scenes/cornell/cornell.gltf; used by "
-                                    "cornell and gallery)")
+                                    "cornell, gallery and atrium)")
     args = ap.parse_args()
     for name in args.scenes:
         if name == "cornell":
@@ -900,8 +988,10 @@ def main():
             gallery(args.bunny)
         elif name == "vitrine":
             vitrine(args.bunny)
+        elif name == "atrium":
+            atrium(args.bunny)
         else:
-            sys.exit("unknown scene %r (cornell, ring, furnace, gallery, vitrine)" % name)
+            sys.exit("unknown scene %r (cornell, ring, furnace, gallery, vitrine, atrium)" % name)
         print("wrote scenes/%s" % name)
 
 
