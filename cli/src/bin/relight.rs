@@ -83,6 +83,11 @@ struct Args {
     /// repeat is a view-only change; the image written is the last frame's.
     #[arg(long, value_name = "DEGREES", allow_negative_numbers = true)]
     orbit: Option<f32>,
+    /// Per-vertex bakes, with --repeat: a turning light. Frame k has the environment turned k
+    /// times this many degrees further about +Y, so every repeat runs the light, material and
+    /// view stages (with --orbit as well: the camera moves too).
+    #[arg(long, value_name = "DEGREES", allow_negative_numbers = true)]
+    turn: Option<f32>,
 }
 
 /// Image side when --width or --height is not given.
@@ -108,6 +113,7 @@ fn run(args: Args) -> Result<()> {
         ("--width", args.width.is_some()),
         ("--height", args.height.is_some()),
         ("--orbit", args.orbit.is_some()),
+        ("--turn", args.turn.is_some()),
     ]
     .into_iter()
     .filter_map(|(flag, given)| given.then_some(flag))
@@ -257,22 +263,31 @@ fn run_vertex(args: Args, file: BakeFile) -> Result<()> {
     if args.orbit.is_some_and(|d| !d.is_finite()) {
         bail!("--orbit must be a finite number of degrees");
     }
+    if args.turn.is_some_and(|d| !d.is_finite()) {
+        bail!("--turn must be a finite number of degrees");
+    }
+    let (_, rotation0) = r.environment();
     let mut rgb = vec![0.0f32; 3 * width as usize * height as usize];
     let first = r.render(&camera, width, height, &mut rgb)?;
     if first.clamped {
         eprintln!("warning: a shininess/alpha lies outside its basis' sampled range and was clamped to it");
     }
-    // Repeats change nothing but the camera (with --orbit): they measure the view stage alone.
+    // Repeats change nothing but the camera (with --orbit; then they measure the view stage
+    // alone) and the light's turn (with --turn: all three stages).
     // A frame's wall-clock time also counts what `render` does besides the stages (the check
     // that a new eye is not inside an object).
     let mut views = vec![first.view_s];
     let mut rasters = vec![first.raster_s];
+    let mut lights = Vec::new();
     let mut frames = Vec::new();
     for k in 1..args.repeat {
         let cam = match args.orbit {
             Some(deg) => orbit(&camera, deg * k as f32),
             None => camera,
         };
+        if let Some(deg) = args.turn {
+            r.set_environment_rotation(rotation0 + deg * k as f32)?;
+        }
         let start = std::time::Instant::now();
         let stats = r
             .render(&cam, width, height, &mut rgb)
@@ -280,7 +295,11 @@ fn run_vertex(args: Args, file: BakeFile) -> Result<()> {
         frames.push(start.elapsed().as_secs_f64());
         views.push(stats.view_s);
         rasters.push(stats.raster_s);
+        if let Some(l) = stats.light_s {
+            lights.push(l + stats.material_s.unwrap_or(0.0));
+        }
     }
+    lights.sort_by(f64::total_cmp);
     views.sort_by(f64::total_cmp);
     frames.sort_by(f64::total_cmp);
     rasters.sort_by(f64::total_cmp);
@@ -324,6 +343,8 @@ fn run_vertex(args: Args, file: BakeFile) -> Result<()> {
                 "view_s_min": views[0],
                 "raster_s_median": rasters[rasters.len() / 2],
                 "orbit_deg": args.orbit,
+                "turn_deg": args.turn,
+                "light_and_material_s_median": lights.get(lights.len() / 2),
                 "frame_s_median": frame_median,
                 "ns_per_pixel_view": view_median * 1e9 / (f64::from(width) * f64::from(height)),
                 "threads": rayon::current_num_threads(),

@@ -42,6 +42,8 @@ pub(super) struct CompressedTensor {
     /// bounded by the vertices (`b_c` never exceeds the cluster's size, checked at opening).
     pub rows_at: Vec<usize>,
     pub rows: usize,
+    /// Per cluster `light_c` (`L x a`) as stored, then `element_c` **transposed** to
+    /// `r x W` (at opening), the layout the light stage reads.
     pub factors: Vec<f32>,
     pub core: Vec<f32>,
     /// `[V][B]`.
@@ -83,46 +85,24 @@ pub(super) fn contract_light(
         rest = tail;
     }
     if row > 0 {
+        let simd = avx2_available();
         slices.into_par_iter().enumerate().for_each(|(k, out)| {
             let [a, r, b] = layout.ranks[k];
             let light = &factors[layout.factor_at[k]..][..bins * a];
-            let element = &factors[layout.factor_at[k] + bins * a..][..elements * channels * r];
+            let element_t = &factors[layout.factor_at[k] + bins * a..][..elements * channels * r];
             let core = &core[layout.core_at[k]..][..b * a * r];
-            // P[a][ch].
-            let mut p = vec![[0.0f32; 3]; a];
-            for (cl, row) in c.iter().zip(light.chunks_exact(a.max(1))) {
-                for (pa, &x) in p.iter_mut().zip(row) {
-                    for ch in 0..3 {
-                        pa[ch] += cl[ch] * x;
-                    }
-                }
-            }
-            // Q[b][r][ch].
-            let mut q = vec![[0.0f32; 3]; b * r];
-            for (bb, qb) in q.chunks_exact_mut(r.max(1)).enumerate().take(b) {
-                for (aa, pa) in p.iter().enumerate() {
-                    let row = &core[(bb * a + aa) * r..][..r];
-                    for (qk, &x) in qb.iter_mut().zip(row) {
-                        for ch in 0..3 {
-                            qk[ch] += pa[ch] * x;
-                        }
-                    }
-                }
-            }
-            // S[b][e][ch] = scale sum_r Q[b][r][ch] element[(e, ch')][r].
-            for (bb, sb) in out.chunks_exact_mut(elements * 3).enumerate().take(b) {
-                let qb = &q[bb * r..][..r];
-                for (e, se) in sb.chunks_exact_mut(3).enumerate() {
-                    for (ch, s) in se.iter_mut().enumerate() {
-                        let w = if channels == 1 { e } else { e * 3 + ch };
-                        let row = &element[w * r..][..r];
-                        let mut acc = 0.0f32;
-                        for (qk, &x) in qb.iter().zip(row) {
-                            acc += qk[ch] * x;
-                        }
-                        *s = scale * acc;
-                    }
-                }
+            let dims = ClusterDims {
+                a,
+                r,
+                b,
+                elements,
+                channels,
+            };
+            if simd {
+                // SAFETY: AVX2 is present (checked above).
+                unsafe { cluster_light_avx2(dims, c, light, core, element_t, scale, out) }
+            } else {
+                cluster_light(dims, c, light, core, element_t, scale, out)
             }
         });
     }
@@ -130,6 +110,136 @@ pub(super) fn contract_light(
         rows: t.rows,
         elements,
         per_cluster,
+    }
+}
+
+/// The ranks of one cluster and the shape of its tensor's elements.
+#[derive(Clone, Copy)]
+struct ClusterDims {
+    a: usize,
+    r: usize,
+    b: usize,
+    elements: usize,
+    channels: usize,
+}
+
+fn avx2_available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// [`cluster_light`] compiled for AVX2: the same operations in the same order, so the same
+/// bits.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn cluster_light_avx2(
+    d: ClusterDims,
+    c: &[[f32; 3]],
+    light: &[f32],
+    core: &[f32],
+    element_t: &[f32],
+    scale: f32,
+    out: &mut [f32],
+) {
+    cluster_light(d, c, light, core, element_t, scale, out)
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+unsafe fn cluster_light_avx2(
+    d: ClusterDims,
+    c: &[[f32; 3]],
+    light: &[f32],
+    core: &[f32],
+    element_t: &[f32],
+    scale: f32,
+    out: &mut [f32],
+) {
+    cluster_light(d, c, light, core, element_t, scale, out)
+}
+
+/// One cluster's light contraction (see [`contract_light`]): `light` is `L x a`, `core`
+/// `b x a x r`, `element_t` the element factor transposed, `r x (elements x channels)`; `out`
+/// gets `S[b][e][ch]`. Channel-major intermediates make every inner loop an `y += s x` over
+/// contiguous rows, which vectorizes; each output still adds its terms in the order of the
+/// plain dot products (light bins, then `a`, then `r`, ascending), so the bits do not depend
+/// on the instruction set.
+#[inline(always)]
+fn cluster_light(
+    d: ClusterDims,
+    c: &[[f32; 3]],
+    light: &[f32],
+    core: &[f32],
+    element_t: &[f32],
+    scale: f32,
+    out: &mut [f32],
+) {
+    let ClusterDims {
+        a,
+        r,
+        b,
+        elements,
+        channels,
+    } = d;
+    let axpy = |y: &mut [f32], s: f32, x: &[f32]| {
+        for (y, &x) in y.iter_mut().zip(x) {
+            *y += s * x;
+        }
+    };
+    // P[ch][a] = sum_l C[l][ch] light[l][a].
+    let mut p = vec![0.0f32; 3 * a];
+    for (cl, row) in c.iter().zip(light.chunks_exact(a.max(1))) {
+        for (ch, pc) in p.chunks_exact_mut(a.max(1)).enumerate() {
+            axpy(pc, cl[ch], row);
+        }
+    }
+    // Q[ch][b][r] = sum_a P[ch][a] core[b][a][r].
+    let mut q = vec![0.0f32; 3 * b * r];
+    for bb in 0..b {
+        for aa in 0..a {
+            let row = &core[(bb * a + aa) * r..][..r];
+            for ch in 0..3 {
+                axpy(&mut q[(ch * b + bb) * r..][..r], p[ch * a + aa], row);
+            }
+        }
+    }
+    // S[b][e][ch] = scale sum_r Q[ch][b][r] element[w][r], w = e (gray) or 3e + ch (RGB).
+    let width = elements * channels;
+    let mut acc = vec![0.0f32; 3 * width];
+    for (bb, sb) in out.chunks_exact_mut(elements * 3).enumerate().take(b) {
+        acc.iter_mut().for_each(|x| *x = 0.0);
+        for (rr, et) in element_t.chunks_exact(width.max(1)).enumerate().take(r) {
+            for (ch, ac) in acc.chunks_exact_mut(width.max(1)).enumerate() {
+                axpy(ac, q[(ch * b + bb) * r + rr], et);
+            }
+        }
+        for (e, se) in sb.chunks_exact_mut(3).enumerate() {
+            for (ch, s) in se.iter_mut().enumerate() {
+                let w = if channels == 1 { e } else { e * 3 + ch };
+                *s = scale * acc[ch * width + w];
+            }
+        }
+    }
+}
+
+/// Transposes each cluster's element factor (`W x r` as stored) to `r x W` in place, the
+/// layout [`cluster_light`] reads.
+fn transpose_element_factors(layout: &TuckerLayout, bins: usize, width: usize, f: &mut [f32]) {
+    for (k, rk) in layout.ranks.iter().enumerate() {
+        let r = rk[1];
+        let at = layout.factor_at[k] + bins * rk[0];
+        let block = &mut f[at..at + width * r];
+        let stored = block.to_vec();
+        for w in 0..width {
+            for rr in 0..r {
+                block[rr * width + w] = stored[w * r + rr];
+            }
+        }
     }
 }
 
@@ -274,10 +384,12 @@ pub(super) fn validate_group(
             }
         }
         let read = |part| file.tensor(&names::tucker(g, tensor, part))?.to_f32_vec();
+        let mut factors = read(names::TUCKER_FACTORS)?;
+        transpose_element_factors(&layout, bins, width, &mut factors);
         Ok(CompressedTensor {
             rows_at,
             rows,
-            factors: read(names::TUCKER_FACTORS)?,
+            factors,
             core: read(names::TUCKER_CORE)?,
             vertex: read(names::TUCKER_VERTEX)?,
             layout,

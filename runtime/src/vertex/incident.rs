@@ -82,15 +82,6 @@ impl<'a> Values<'a> {
         })
     }
 
-    /// Value `i` as f32.
-    #[inline]
-    fn get(&self, i: usize) -> f32 {
-        match self {
-            Values::F32(v) => v[i],
-            Values::F16(v) => v[i].to_f32(),
-        }
-    }
-
     /// `n` values from `start` as f32: borrowed, or converted into `scratch`.
     #[inline]
     fn block<'s>(&'s self, start: usize, n: usize, scratch: &'s mut Vec<f32>) -> &'s [f32] {
@@ -270,6 +261,11 @@ pub(super) fn light_stage(
     let c1 = light.one_bounce.texels();
     let c2 = light.two_bounce.texels();
     let n_i = meta.t2_slots.len();
+    // C0 interleaved, one 16-byte entry per Haar coefficient: each sparse term gathers one
+    // entry instead of three from separate arrays.
+    let haar: Vec<[f32; 4]> = (0..light.haar[0].len())
+        .map(|i| [light.haar[0][i], light.haar[1][i], light.haar[2][i], 0.0])
+        .collect();
     let mut out = Vec::with_capacity(meta.groups.len());
     for (g, (gm, layout)) in meta.groups.iter().zip(&scene.groups).enumerate() {
         let nv = layout.vertices.len();
@@ -284,16 +280,18 @@ pub(super) fn light_stage(
             .par_chunks_mut(rows.max(1))
             .enumerate()
             .with_min_len(64)
-            .for_each(|(v, o)| {
+            .for_each_init(Vec::new, |scratch, (v, o)| {
+                let at = v * rows * terms;
+                let values = value.block(at, rows * terms, scratch);
+                let indices = &index[at..at + rows * terms];
                 for (k, ok) in o.iter_mut().enumerate() {
-                    let at = (v * rows + k) * terms;
                     let mut acc = [0.0f32; 3];
-                    for (t, &i) in index[at..at + terms].iter().enumerate() {
-                        let x = value.get(at + t);
-                        let i = i as usize;
-                        acc[0] += x * light.haar[0][i];
-                        acc[1] += x * light.haar[1][i];
-                        acc[2] += x * light.haar[2][i];
+                    let row = k * terms..(k + 1) * terms;
+                    for (&x, &i) in values[row.clone()].iter().zip(&indices[row]) {
+                        let c = haar[i as usize];
+                        acc[0] += x * c[0];
+                        acc[1] += x * c[1];
+                        acc[2] += x * c[2];
                     }
                     *ok = acc.map(|a| a * gm.scale_t0);
                 }
@@ -532,7 +530,7 @@ mod tests {
         let mut scratch = Vec::new();
         let b = v.block(3, 30, &mut scratch).to_vec();
         for (k, x) in b.iter().enumerate() {
-            assert_eq!(*x, v.get(3 + k));
+            assert_eq!(x.to_bits(), h[3 + k].to_f32().to_bits());
         }
     }
 }

@@ -34,7 +34,7 @@ use std::time::Instant;
 
 use prt_formats::envmap::{EnvMapReport, LatLongMap};
 use prt_formats::lighting::cubemap::rotation_y;
-use prt_formats::lighting::{prefilter, LightingError};
+use prt_formats::lighting::{prefilter, CubeMap, LightingError};
 use prt_formats::overrides::MaterialOverride;
 use prt_formats::pixel::MaterialParams;
 use prt_formats::vertex::VertexBakeMeta;
@@ -115,6 +115,9 @@ pub struct VertexRelighter {
     materials: Materials,
     environment: LatLongMap,
     rotation_deg: f32,
+    /// The current map's prefiltered cubes (per `prefilter_widths`) unturned: a turn of the
+    /// map reuses them, looked up at turned directions (see [`light_coefficients`]).
+    prefiltered_unturned: Option<Vec<CubeMap>>,
     light: Option<LightState>,
     shaded: Option<ShadeState>,
     rasterizer: Rasterizer,
@@ -190,6 +193,7 @@ impl VertexRelighter {
             materials,
             environment,
             rotation_deg,
+            prefiltered_unturned: None,
             light: None,
             shaded: None,
             rasterizer: Rasterizer::new(),
@@ -250,6 +254,7 @@ impl VertexRelighter {
         check_rotation(rotation_deg)?;
         self.environment = map;
         self.rotation_deg = rotation_deg;
+        self.prefiltered_unturned = None;
         self.light = None;
         Ok(())
     }
@@ -414,6 +419,7 @@ impl VertexRelighter {
             environment: Environment {
                 map: &self.environment,
                 back: rotation_y(-f64::from(self.rotation_deg)),
+                turned: self.rotation_deg != 0.0,
             },
             eye: camera.position,
         };
@@ -463,8 +469,12 @@ impl VertexRelighter {
             return Ok(None);
         }
         let start = Instant::now();
-        let coefficients =
-            light_coefficients(&self.environment, self.rotation_deg, &self.prefilter_widths)?;
+        let coefficients = light_coefficients(
+            &self.environment,
+            self.rotation_deg,
+            &self.prefilter_widths,
+            &mut self.prefiltered_unturned,
+        )?;
         let groups = incident::light_stage(&self.file, &self.meta, &self.scene, &coefficients)?;
         self.light = Some(LightState {
             coefficients,
@@ -531,17 +541,48 @@ fn check_rotation(rotation_deg: f32) -> Result<(), RuntimeError> {
 }
 
 /// The light coefficients of `map` turned `rotation_deg`, with the prefiltered cubes of
-/// `widths` (nonzero, degrees) computed in parallel (each is `crate::light`'s own).
+/// `widths` (nonzero, degrees) of the map **unturned**, computed in parallel (each is
+/// `crate::light`'s own) when `unturned` does not hold them yet, and kept there.
+///
+/// Why unturned: the prefilter is a convolution with a kernel that depends only on the angle
+/// between directions, so it commutes with rotations: the prefiltered turned map at `d` is the
+/// prefiltered map at `R_y(-rotation) d`. The view stage looks the cubes up there
+/// (`shade::Environment::turned`), so a turn of the map, the common light edit, skips the
+/// prefilter, which is most of the light stage's cost. The two differ only by where each
+/// resamples (the cube texel grid is turned or the lookup is), within the bilinear lookup's
+/// own error (`runtime` test `a_turned_lookup_matches_prefiltering_the_turned_map`); at
+/// rotation 0 nothing changes.
 fn light_coefficients(
     map: &LatLongMap,
     rotation_deg: f32,
     widths: &[f64],
+    unturned: &mut Option<Vec<CubeMap>>,
 ) -> Result<LightCoefficients, LightingError> {
     let mut base = LightCoefficients::from_latlong(map, f64::from(rotation_deg), &[])?;
-    let prefiltered = widths
+    let prefiltered = match unturned {
+        Some(cubes) => cubes.clone(),
+        None => {
+            let cube = if rotation_deg == 0.0 {
+                base.cube.clone()
+            } else {
+                LightCoefficients::from_latlong(map, 0.0, &[])?.cube
+            };
+            let cubes = prefiltered_cubes(&cube, widths)?;
+            *unturned = Some(cubes.clone());
+            cubes
+        }
+    };
+    base.widths_deg = widths.to_vec();
+    base.prefiltered = prefiltered;
+    Ok(base)
+}
+
+/// The prefiltered cubes of `cube` for `widths` (nonzero, degrees), in parallel.
+fn prefiltered_cubes(cube: &CubeMap, widths: &[f64]) -> Result<Vec<CubeMap>, LightingError> {
+    widths
         .par_iter()
         .map(|&w| {
-            let one = LightCoefficients::from_cube(base.cube.clone(), &[w])?;
+            let one = LightCoefficients::from_cube(cube.clone(), &[w])?;
             let got = one.prefiltered.len();
             one.prefiltered
                 .into_iter()
@@ -552,8 +593,78 @@ fn light_coefficients(
                     got,
                 })
         })
-        .collect::<Result<Vec<_>, LightingError>>()?;
-    base.widths_deg = widths.to_vec();
-    base.prefiltered = prefiltered;
-    Ok(base)
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use prt_formats::lighting::cubemap::direction_to_face_st;
+
+    /// A sky with a warm horizon band and a small bright spot off every axis of symmetry.
+    fn asymmetric_map() -> LatLongMap {
+        let (w, h) = (128usize, 64usize);
+        let texels = (0..w * h)
+            .map(|i| {
+                let (x, y) = (i % w, i / w);
+                let spot = (20..24).contains(&x) && (18..21).contains(&y);
+                let band = (30..36).contains(&y);
+                let v = if spot {
+                    80.0
+                } else if band {
+                    2.0
+                } else {
+                    0.3
+                };
+                [v, 0.8 * v, 0.5 * v + 0.01 * x as f32]
+            })
+            .collect();
+        LatLongMap::new(w, h, texels, 1.0).expect("map").0
+    }
+
+    #[test]
+    fn a_turned_lookup_matches_prefiltering_the_turned_map() {
+        let map = asymmetric_map();
+        let widths = [4.0, 12.0, 30.0];
+        let rotation = 70.0f32;
+        let turned = LightCoefficients::from_latlong(&map, f64::from(rotation), &[])
+            .expect("turned cube")
+            .cube;
+        let direct = prefiltered_cubes(&turned, &widths).expect("prefiltered turned map");
+        let mut unturned = None;
+        let reused = light_coefficients(&map, rotation, &widths, &mut unturned)
+            .expect("coefficients")
+            .prefiltered;
+        assert!(unturned.is_some(), "the unturned cubes were not kept");
+        let env = shade::Environment {
+            map: &map,
+            back: rotation_y(-f64::from(rotation)),
+            turned: true,
+        };
+        // Directions spread over the sphere (a Fibonacci lattice).
+        let n = 2000;
+        for (w, (a, b)) in widths.iter().zip(direct.iter().zip(&reused)) {
+            let (mut worst, mut peak) = (0.0f32, 0.0f32);
+            for k in 0..n {
+                let z = 1.0 - (2 * k + 1) as f64 / n as f64;
+                let phi = k as f64 * 2.399_963_229_728_653;
+                let r = (1.0 - z * z).sqrt();
+                let d = [r * phi.cos(), z, r * phi.sin()];
+                let at = direction_to_face_st(d);
+                let want = a.lookup_bilinear_face_st(at.0, at.1, at.2);
+                let (f, s, t) = env.prefiltered_at(d.map(|x| x as f32), at);
+                let got = b.lookup_bilinear_face_st(f, s, t);
+                for c in 0..3 {
+                    worst = worst.max((want[c] - got[c]).abs());
+                    peak = peak.max(want[c]);
+                }
+            }
+            // Both resample the same continuous prefiltered sky (one turns the texel grid, the
+            // other the lookup); the narrowest width, a few texels wide, differs most.
+            assert!(
+                worst <= 0.03 * peak,
+                "width {w}: turned lookup off by {worst} (peak {peak})"
+            );
+        }
+    }
 }

@@ -31,6 +31,7 @@ use prt_formats::envmap::LatLongMap;
 use prt_formats::latlong;
 use prt_formats::lighting::cubemap::{direction_to_face_st, face_st_to_texel, texel_index};
 use prt_formats::lighting::sh::{sh_band, sh_eval_f32, SH_BANDS, SH_COUNT};
+use prt_formats::lighting::Face;
 use prt_formats::pixel::MaterialParams;
 use prt_formats::texture::sample_bilinear;
 use prt_formats::vertex::{to_local, vertex_frame, VISIBILITY_CUBE};
@@ -176,6 +177,9 @@ pub(super) struct Environment<'a> {
     pub map: &'a LatLongMap,
     /// `R_y(-rotation)`: radiance from `d` is the map's from `back d`.
     pub back: [[f64; 3]; 3],
+    /// Whether the rotation is not 0: the prefiltered cubes are the unturned map's, so they
+    /// are read at `back d` (`light_coefficients` in `mod.rs` says why).
+    pub turned: bool,
 }
 
 impl Environment<'_> {
@@ -187,6 +191,20 @@ impl Environment<'_> {
         let r: [f32; 3] =
             std::array::from_fn(|i| (m[i][0] * d[0] + m[i][1] * d[1] + m[i][2] * d[2]) as f32);
         latlong::lookup_bilinear(&self.map.texels, self.map.width, self.map.height, r)
+    }
+
+    /// Where the prefiltered cubes are read for the world direction `d` that falls at
+    /// `(face, s, t)`: there when the map is not turned, else at `back d`.
+    #[inline(always)]
+    pub(super) fn prefiltered_at(&self, d: [f32; 3], at: (Face, f64, f64)) -> (Face, f64, f64) {
+        if !self.turned {
+            return at;
+        }
+        let d = d.map(f64::from);
+        let m = &self.back;
+        direction_to_face_st(std::array::from_fn(|i| {
+            m[i][0] * d[0] + m[i][1] * d[1] + m[i][2] * d[2]
+        }))
     }
 }
 
@@ -375,12 +393,13 @@ impl ViewInputs<'_> {
                 band[c] += rec[I1_AT + 3 * sidx + c] * ys;
             }
         }
+        let (pface, ps, pt) = self.environment.prefiltered_at(r_w, (face, fs, ft));
         let mut prefiltered = [[0.0f32; 3]; MAX_SPLIT_WIDTHS];
         for (pw, wd) in prefiltered.iter_mut().zip(widths) {
             let ibar = match wd.lookup {
                 Prefiltered::Environment => self.environment.radiance(r_w),
                 Prefiltered::Cube(i) => {
-                    self.light.prefiltered[i].lookup_bilinear_face_st(face, fs, ft)
+                    self.light.prefiltered[i].lookup_bilinear_face_st(pface, ps, pt)
                 }
             };
             for c in 0..3 {
