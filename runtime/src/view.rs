@@ -249,22 +249,7 @@ pub fn eye_verdict(
     }
     check_indices(positions.len(), triangles)?;
 
-    let nearest = triangles
-        .par_chunks(CHUNK)
-        .enumerate()
-        .map(|(c, tris)| {
-            let mut best = [Hit::NONE; 26];
-            for (i, tri) in tris.iter().enumerate() {
-                let t = (c * CHUNK + i) as u32;
-                hit_all(tri.map(|v| positions[v as usize]), eye, t, &mut best);
-            }
-            best
-        })
-        // The nearest of two hits, ties to the lower triangle: the same in any grouping.
-        .reduce(
-            || [Hit::NONE; 26],
-            |a, b| std::array::from_fn(|k| if b[k].before(&a[k]) { b[k] } else { a[k] }),
-        );
+    let nearest = nearest_hits(positions, triangles, eye);
     let material_count = triangle_material
         .iter()
         .max()
@@ -283,8 +268,111 @@ pub fn eye_verdict(
     }))
 }
 
+/// Triangles per culling block: a block's bounding box is tested against the rays that could
+/// still find a nearer hit, and only its triangles for the rays that pass.
+const BLOCK: usize = 32;
+
+/// The nearest hit along each of the 26 rays from `eye`: the same as testing every triangle
+/// against every ray (`nearest_hits_brute`, kept for the test), but a block of [`BLOCK`]
+/// consecutive triangles (meshes store nearby triangles together) is skipped for the rays
+/// that miss its box or already have a hit nearer than the box. A camera move re-runs this,
+/// so its cost is part of a view change.
+fn nearest_hits(positions: &[[f32; 3]], triangles: &[[u32; 3]], eye: [f32; 3]) -> [Hit; 26] {
+    let dirs = EYE_TEST_DIRECTIONS.map(|d| d.map(f64::from));
+    let e = eye.map(f64::from);
+    triangles
+        .par_chunks(CHUNK)
+        .enumerate()
+        .map(|(c, tris)| {
+            let mut best = [Hit::NONE; 26];
+            for (b, block) in tris.chunks(BLOCK).enumerate() {
+                let (lo, hi) = padded_box(positions, block);
+                let mut mask = 0u32;
+                for (k, d) in dirs.iter().enumerate() {
+                    if let Some(t_near) = ray_box(e, *d, lo, hi) {
+                        // Strictly beyond the best hit: nothing in the box can come first or
+                        // tie (ties go to the lower triangle index, compared in `before`).
+                        if t_near <= f64::from(best[k].t) {
+                            mask |= 1 << k;
+                        }
+                    }
+                }
+                if mask == 0 {
+                    continue;
+                }
+                for (i, tri) in block.iter().enumerate() {
+                    let t = (c * CHUNK + b * BLOCK + i) as u32;
+                    hit_some(tri.map(|v| positions[v as usize]), eye, t, mask, &mut best);
+                }
+            }
+            best
+        })
+        // The nearest of two hits, ties to the lower triangle: the same in any grouping.
+        .reduce(
+            || [Hit::NONE; 26],
+            |a, b| std::array::from_fn(|k| if b[k].before(&a[k]) { b[k] } else { a[k] }),
+        )
+}
+
+/// The bounding box of `block`'s vertices (f64), grown so that every hit the f32 test can
+/// report lies inside: Moller-Trumbore's barycentrics and `t` carry f32 rounding, so a hit
+/// may fall a few ulps outside the triangle; the margin is many times that.
+fn padded_box(positions: &[[f32; 3]], block: &[[u32; 3]]) -> ([f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for tri in block {
+        for &v in tri {
+            let p = positions[v as usize];
+            for i in 0..3 {
+                lo[i] = lo[i].min(f64::from(p[i]));
+                hi[i] = hi[i].max(f64::from(p[i]));
+            }
+        }
+    }
+    let scale = (0..3).fold(0.0f64, |m, i| {
+        m.max(lo[i].abs()).max(hi[i].abs()).max(hi[i] - lo[i])
+    });
+    let pad = 1e-4 * scale + 1e-12;
+    (lo.map(|x| x - pad), hi.map(|x| x + pad))
+}
+
+/// Where the ray `eye + t d` (t >= 0) enters the box, or None when it misses it. A zero
+/// direction component keeps the ray in that slab only when the eye lies within it.
+fn ray_box(eye: [f64; 3], d: [f64; 3], lo: [f64; 3], hi: [f64; 3]) -> Option<f64> {
+    let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
+    for i in 0..3 {
+        if d[i] == 0.0 {
+            if eye[i] < lo[i] || eye[i] > hi[i] {
+                return None;
+            }
+            continue;
+        }
+        let (a, b) = ((lo[i] - eye[i]) / d[i], (hi[i] - eye[i]) / d[i]);
+        t0 = t0.max(a.min(b));
+        t1 = t1.min(a.max(b));
+    }
+    // A small relative allowance, as for the box: the entry point is only a bound.
+    (t0 <= t1 * (1.0 + 1e-9) + 1e-12).then_some(t0 * (1.0 - 1e-6))
+}
+
+/// Every triangle against every ray: what [`nearest_hits`] must equal.
+#[cfg(test)]
+fn nearest_hits_brute(positions: &[[f32; 3]], triangles: &[[u32; 3]], eye: [f32; 3]) -> [Hit; 26] {
+    let mut best = [Hit::NONE; 26];
+    for (t, tri) in triangles.iter().enumerate() {
+        hit_some(
+            tri.map(|v| positions[v as usize]),
+            eye,
+            t as u32,
+            u32::MAX,
+            &mut best,
+        );
+    }
+    best
+}
+
 /// The nearest hit so far along one of the 26 rays.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 struct Hit {
     t: f32,
     triangle: u32,
@@ -322,15 +410,19 @@ fn cross32(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
     ]
 }
 
-/// Moller-Trumbore of one triangle against the 26 rays from `eye`, keeping the nearest hit of
-/// each. What depends only on the triangle and the eye is computed once.
-fn hit_all(p: [[f32; 3]; 3], eye: [f32; 3], triangle: u32, best: &mut [Hit; 26]) {
+/// Moller-Trumbore of one triangle against the rays from `eye` whose bit is set in `rays` (of
+/// the 26), keeping the nearest hit of each. What depends only on the triangle and the eye is
+/// computed once.
+fn hit_some(p: [[f32; 3]; 3], eye: [f32; 3], triangle: u32, rays: u32, best: &mut [Hit; 26]) {
     let e1 = sub(p[1], p[0]);
     let e2 = sub(p[2], p[0]);
     let s = sub(eye, p[0]);
     let q = cross32(s, e1);
     let t_num = dot32(e2, q);
     for (k, dir) in EYE_TEST_DIRECTIONS.iter().enumerate() {
+        if rays & (1 << k) == 0 {
+            continue;
+        }
         let pv = cross32(*dir, e2);
         let det = dot32(e1, pv);
         if det == 0.0 || !det.is_finite() {
@@ -349,6 +441,80 @@ fn hit_all(p: [[f32; 3]; 3], eye: [f32; 3], triangle: u32, best: &mut [Hit; 26])
         let hit = Hit { t, triangle, u, v };
         if t > 0.0 && hit.before(&best[k]) {
             best[k] = hit;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A small deterministic generator (xorshift) for the test geometry.
+    struct Rng(u64);
+    impl Rng {
+        fn next(&mut self) -> f32 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            (self.0 >> 40) as f32 / (1u64 << 24) as f32
+        }
+    }
+
+    /// A grid of `n x n` quads in the plane y = `y` over [-1, 1]^2, jittered in height, and
+    /// `soup` random small triangles scattered through [-1, 1]^3.
+    fn scene(n: usize, y: f32, soup: usize, rng: &mut Rng) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
+        let mut p = Vec::new();
+        let mut t = Vec::new();
+        for j in 0..=n {
+            for i in 0..=n {
+                let (u, v) = (i as f32 / n as f32, j as f32 / n as f32);
+                p.push([2.0 * u - 1.0, y + 0.01 * rng.next(), 2.0 * v - 1.0]);
+            }
+        }
+        for j in 0..n {
+            for i in 0..n {
+                let a = (j * (n + 1) + i) as u32;
+                let (b, c, d) = (a + 1, a + n as u32 + 2, a + n as u32 + 1);
+                t.push([a, b, c]);
+                t.push([a, c, d]);
+            }
+        }
+        for _ in 0..soup {
+            let c = [0.0; 3].map(|_: f32| 2.0 * rng.next() - 1.0);
+            let base = p.len() as u32;
+            for _ in 0..3 {
+                p.push(std::array::from_fn(|i| c[i] + 0.2 * (rng.next() - 0.5)));
+            }
+            t.push([base, base + 1, base + 2]);
+        }
+        (p, t)
+    }
+
+    #[test]
+    fn culled_nearest_hits_equal_testing_every_triangle() {
+        let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+        let (p, t) = scene(40, 0.0, 12000, &mut rng);
+        let mut eyes: Vec<[f32; 3]> = (0..300)
+            .map(|_| [0.0; 3].map(|_: f32| 2.4 * rng.next() - 1.2))
+            .collect();
+        // Eyes on grid vertices and edges (rays along the plane), at a soup vertex, and on the
+        // plane of a box face.
+        eyes.extend([
+            [0.0, 0.0, 0.0],
+            [0.5, 0.0, -0.25],
+            p[t[5000][0] as usize],
+            [1.0, 0.3, 0.2],
+        ]);
+        for eye in eyes {
+            let fast = nearest_hits(&p, &t, eye);
+            let slow = nearest_hits_brute(&p, &t, eye);
+            for k in 0..26 {
+                assert_eq!(
+                    (fast[k].triangle, fast[k].t.to_bits()),
+                    (slow[k].triangle, slow[k].t.to_bits()),
+                    "eye {eye:?}, ray {k}"
+                );
+            }
         }
     }
 }
