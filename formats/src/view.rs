@@ -42,6 +42,26 @@ pub struct CameraFrame {
     pub yfov: f32,
 }
 
+impl CameraFrame {
+    /// This camera turned `deg` degrees about the world's +Y axis through the origin (the
+    /// right-hand rule, as environment rotations: `lighting::cubemap::rotation_y`): an orbit
+    /// step, a view-only change.
+    pub fn orbited(&self, deg: f32) -> CameraFrame {
+        let m = crate::lighting::cubemap::rotation_y(f64::from(deg));
+        let turn = |v: [f32; 3]| -> [f32; 3] {
+            let v = v.map(f64::from);
+            std::array::from_fn(|i| (m[i][0] * v[0] + m[i][1] * v[1] + m[i][2] * v[2]) as f32)
+        };
+        CameraFrame {
+            position: turn(self.position),
+            forward: turn(self.forward),
+            right: turn(self.right),
+            up: turn(self.up),
+            yfov: self.yfov,
+        }
+    }
+}
+
 /// Why a `--camera` argument was refused; the message quotes the argument.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
@@ -328,6 +348,25 @@ mod tests {
             .expect("frame");
         assert!((g.right[0] - 1.0).abs() < 1e-6 && (g.up[1] - 1.0).abs() < 1e-6);
         assert!((g.yfov - 30f32.to_radians()).abs() < 1e-7);
+    }
+
+    #[test]
+    fn an_orbit_turns_the_whole_frame_about_y() {
+        let f = "eye=0,1,5 target=0,1,0 fov=30"
+            .parse::<CameraSpec>()
+            .expect("parse")
+            .frame()
+            .expect("frame");
+        // Right-hand rule about +Y: +Z goes to +X.
+        let g = f.orbited(90.0);
+        let near = |a: [f32; 3], b: [f32; 3]| (0..3).all(|i| (a[i] - b[i]).abs() < 1e-6);
+        assert!(near(g.position, [5.0, 1.0, 0.0]), "{:?}", g.position);
+        assert!(near(g.forward, [-1.0, 0.0, 0.0]), "{:?}", g.forward);
+        assert!(near(g.up, f.up) && g.yfov == f.yfov);
+        let h = f.orbited(30.0).orbited(60.0);
+        for (a, b) in [(h.position, g.position), (h.right, g.right)] {
+            assert!(near(a, b), "{a:?} {b:?}");
+        }
     }
 
     #[test]

@@ -3,11 +3,13 @@
 //! interleaved rounds.
 
 use std::path::Path;
+use std::time::Instant;
 
 use anyhow::{Context as _, Result};
 use prt_bake::config::{BakeConfig, EnvironmentConfig};
 use prt_bake::metrics::relative_l2;
 use prt_bake::scene::Scene;
+use prt_formats::view::CameraFrame;
 use prt_runtime::vertex::{RenderStats, VertexRelighter};
 
 use crate::util::median;
@@ -139,13 +141,15 @@ pub(crate) fn errors(
     Ok(out)
 }
 
-/// Median frame times (seconds) of the three paths, and the view stage's rasterization.
+/// Median frame times (seconds) of the three paths, and parts of them.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct PathTimes {
+    /// Whole `render` calls (eye check, stages that ran, rasterization and shading).
     pub view: f64,
     pub view_brdf: f64,
     pub view_brdf_light: f64,
-    /// The rasterization part of `view`.
+    /// The view stage of the view-only frames, and its rasterization part.
+    pub view_stage: f64,
     pub raster: f64,
     /// The light stage alone (in the view + BRDF + light frames).
     pub light: f64,
@@ -153,8 +157,22 @@ pub(crate) struct PathTimes {
     pub material: f64,
 }
 
-/// Times the three paths of every bake in `rounds` interleaved rounds (per round, each bake
-/// renders a view-only frame, a material edit, then a light turn with a material edit).
+/// One frame from `camera`, timed as a whole.
+fn frame(
+    r: &mut VertexRelighter,
+    camera: &CameraFrame,
+    size: u32,
+    out: &mut [f32],
+) -> Result<(f64, RenderStats)> {
+    let start = Instant::now();
+    let stats = r.render(camera, size, size, out)?;
+    Ok((start.elapsed().as_secs_f64(), stats))
+}
+
+/// Times the three paths of every bake in `rounds` interleaved rounds. Every frame moves the
+/// camera (an orbit step of a quarter degree about the scene's camera, so the eye check and
+/// the rasterization run as in an interactive session); per round each bake renders a
+/// view-only frame, a material edit, then a light turn with a material edit.
 pub(crate) fn time_paths(
     bakes: &[&Path],
     edit_material: &str,
@@ -175,24 +193,30 @@ pub(crate) fn time_paths(
             0.3 + 0.1 * (k % 5) as f32
         ))
     };
-    let mut samples = vec![[(); 6].map(|_| Vec::new()); bakes.len()];
+    let mut out = vec![0.0f32; 3 * (size * size) as usize];
+    let mut samples = vec![[(); 7].map(|_| Vec::new()); bakes.len()];
+    let mut step = 0u32;
     for round in 0..rounds {
         eprintln!("timing round {} of {rounds}", round + 1);
         for (r, t) in relighters.iter_mut().zip(samples.iter_mut()) {
-            let (_, s) = render(r, size)?;
-            t[0].push(s.view_s);
-            t[3].push(s.raster_s);
+            let base = r.default_camera();
+            let mut camera = || {
+                step += 1;
+                base.orbited(0.25 * step as f32)
+            };
+            let (wall, s) = frame(r, &camera(), size, &mut out)?;
+            t[0].push(wall);
+            t[3].push(s.view_s);
+            t[4].push(s.raster_s);
             r.apply(&edit(round)?)?;
-            let (_, s) = render(r, size)?;
-            let material = s.material_s.unwrap_or(0.0);
-            t[1].push(material + s.view_s);
-            t[5].push(material);
+            let (wall, s) = frame(r, &camera(), size, &mut out)?;
+            t[1].push(wall);
+            t[6].push(s.material_s.unwrap_or(0.0));
             r.set_environment_rotation(10.0 * (round + 1) as f32)?;
             r.apply(&edit(round + 1)?)?;
-            let (_, s) = render(r, size)?;
-            let light = s.light_s.unwrap_or(0.0);
-            t[2].push(light + s.material_s.unwrap_or(0.0) + s.view_s);
-            t[4].push(light);
+            let (wall, s) = frame(r, &camera(), size, &mut out)?;
+            t[2].push(wall);
+            t[5].push(s.light_s.unwrap_or(0.0));
         }
     }
     Ok(samples
@@ -201,9 +225,10 @@ pub(crate) fn time_paths(
             view: median(&t[0]),
             view_brdf: median(&t[1]),
             view_brdf_light: median(&t[2]),
-            raster: median(&t[3]),
-            light: median(&t[4]),
-            material: median(&t[5]),
+            view_stage: median(&t[3]),
+            raster: median(&t[4]),
+            light: median(&t[5]),
+            material: median(&t[6]),
         })
         .collect())
 }

@@ -354,15 +354,16 @@ pub(crate) fn write(inputs: &Inputs) -> Result<String> {
         ("large", large),
         ("pictures", pics.join("\n\n")),
         ("view_ms", ms(t0.view)),
+        ("view_stage_ms", ms(t0.view_stage)),
         ("raster_ms", ms(t0.raster)),
-        ("shade_ms", ms(t0.view - t0.raster)),
+        ("shade_ms", ms(t0.view_stage - t0.raster)),
         ("material_ms", ms(t0.material)),
         ("light_ms", ms(t0.light)),
         (
             "shade_ns",
             format!(
                 "{:.0}",
-                (t0.view - t0.raster) * 1e9 * rayon::current_num_threads() as f64
+                (t0.view_stage - t0.raster) * 1e9 * rayon::current_num_threads() as f64
                     / f64::from(m.size * m.size)
             ),
         ),

@@ -17,9 +17,8 @@ use std::process::ExitCode;
 use anyhow::{bail, Context, Result};
 use clap::Parser;
 use prt_formats::envmap::{load_latlong, LatLongMap};
-use prt_formats::lighting::cubemap::rotation_y;
 use prt_formats::vertex::BakeKind;
-use prt_formats::view::{CameraFrame, CameraSpec};
+use prt_formats::view::CameraSpec;
 use prt_formats::{BakeFile, MaterialOverride};
 use prt_runtime::vertex::VertexRelighter;
 use prt_runtime::{Relighter, Variant};
@@ -282,7 +281,7 @@ fn run_vertex(args: Args, file: BakeFile) -> Result<()> {
     let mut frames = Vec::new();
     for k in 1..args.repeat {
         let cam = match args.orbit {
-            Some(deg) => orbit(&camera, deg * k as f32),
+            Some(deg) => camera.orbited(deg * k as f32),
             None => camera,
         };
         if let Some(deg) = args.turn {
@@ -361,20 +360,4 @@ fn run_vertex(args: Args, file: BakeFile) -> Result<()> {
         );
     }
     Ok(())
-}
-
-/// `camera` turned `deg` degrees about the world's +Y axis (right-hand rule).
-fn orbit(camera: &CameraFrame, deg: f32) -> CameraFrame {
-    let m = rotation_y(f64::from(deg));
-    let turn = |v: [f32; 3]| -> [f32; 3] {
-        let v = v.map(f64::from);
-        std::array::from_fn(|i| (m[i][0] * v[0] + m[i][1] * v[1] + m[i][2] * v[2]) as f32)
-    };
-    CameraFrame {
-        position: turn(camera.position),
-        forward: turn(camera.forward),
-        right: turn(camera.right),
-        up: turn(camera.up),
-        yfov: camera.yfov,
-    }
 }
