@@ -301,41 +301,49 @@ impl ViewInputs<'_> {
         let n = normalize(mix3(tri.map(|v| s.normals[v as usize])));
         let p = mix3(tri.map(|v| s.positions[v as usize]));
         let wo = normalize(std::array::from_fn(|i| self.eye[i] - p[i]));
-        let (tangent, bitangent) = vertex_frame(n);
-        let mut wo_l = to_local(tangent, bitangent, n, wo);
-        // NaN (a degenerate normal) also takes this branch.
-        if wo_l[2].is_nan() || wo_l[2] <= 0.0 {
-            // Near a silhouette the interpolated normal can turn away from the eye while the
-            // triangle itself faces it (the side its vertex normals are on): shade as seen
-            // from just above the horizon rather than leave a black pixel. A triangle whose
-            // data side faces away from the eye is seen from the side without data: black.
-            let [a, b, c] = tri.map(|v| s.positions[v as usize]);
-            let e1: [f32; 3] = std::array::from_fn(|i| b[i] - a[i]);
-            let e2: [f32; 3] = std::array::from_fn(|i| c[i] - a[i]);
-            let mut ng = [
-                e1[1] * e2[2] - e1[2] * e2[1],
-                e1[2] * e2[0] - e1[0] * e2[2],
-                e1[0] * e2[1] - e1[1] * e2[0],
-            ];
-            if ng[0] * n[0] + ng[1] * n[1] + ng[2] * n[2] < 0.0 {
-                ng = ng.map(|v| -v);
-            }
-            let facing = ng[0] * wo[0] + ng[1] * wo[1] + ng[2] * wo[2];
-            if facing.is_nan() || facing <= 0.0 {
-                return [0.0; 3];
-            }
-            let h = (wo_l[0] * wo_l[0] + wo_l[1] * wo_l[1]).sqrt();
-            if h.is_nan() || h <= 0.0 {
-                return [0.0; 3];
-            }
-            let z = 1e-3f32;
-            let k = (1.0 - z * z).sqrt() / h;
-            wo_l = [wo_l[0] * k, wo_l[1] * k, z];
-        }
         let material = &self.cache.materials[m];
         let Some(g) = material.group else {
             return [0.0; 3];
         };
+        let glossy = self.lobes[m].is_some() && material.taps.is_some();
+        // `to_local(.., n, wo)[2]`, the same operations: a diffuse pixel whose normal faces the
+        // eye needs no tangent frame, only the irradiance (most pixels of most scenes).
+        let n_dot_wo = n[0] * wo[0] + n[1] * wo[1] + n[2] * wo[2];
+        let mut frame = None;
+        if glossy || n_dot_wo.is_nan() || n_dot_wo <= 0.0 {
+            let (tangent, bitangent) = vertex_frame(n);
+            let mut wo_l = to_local(tangent, bitangent, n, wo);
+            // NaN (a degenerate normal) also takes this branch.
+            if wo_l[2].is_nan() || wo_l[2] <= 0.0 {
+                // Near a silhouette the interpolated normal can turn away from the eye while the
+                // triangle itself faces it (the side its vertex normals are on): shade as seen
+                // from just above the horizon rather than leave a black pixel. A triangle whose
+                // data side faces away from the eye is seen from the side without data: black.
+                let [a, b, c] = tri.map(|v| s.positions[v as usize]);
+                let e1: [f32; 3] = std::array::from_fn(|i| b[i] - a[i]);
+                let e2: [f32; 3] = std::array::from_fn(|i| c[i] - a[i]);
+                let mut ng = [
+                    e1[1] * e2[2] - e1[2] * e2[1],
+                    e1[2] * e2[0] - e1[0] * e2[2],
+                    e1[0] * e2[1] - e1[1] * e2[0],
+                ];
+                if ng[0] * n[0] + ng[1] * n[1] + ng[2] * n[2] < 0.0 {
+                    ng = ng.map(|v| -v);
+                }
+                let facing = ng[0] * wo[0] + ng[1] * wo[1] + ng[2] * wo[2];
+                if facing.is_nan() || facing <= 0.0 {
+                    return [0.0; 3];
+                }
+                let h = (wo_l[0] * wo_l[0] + wo_l[1] * wo_l[1]).sqrt();
+                if h.is_nan() || h <= 0.0 {
+                    return [0.0; 3];
+                }
+                let z = 1e-3f32;
+                let k = (1.0 - z * z).sqrt() / h;
+                wo_l = [wo_l[0] * k, wo_l[1] * k, z];
+            }
+            frame = Some((tangent, bitangent, wo_l));
+        }
         // Every vertex of the triangle is in its material's group (checked on open).
         let local = tri.map(|v| s.vertex_group[v as usize].1 as usize);
         let shade = &self.shades[g];
@@ -357,7 +365,9 @@ impl ViewInputs<'_> {
         let inv_pi = std::f32::consts::FRAC_1_PI;
         let mut b: [f32; 3] =
             std::array::from_fn(|c| material.kd[c] * tex[c] * inv_pi * lerp(E_AT + c));
-        let (Some(lobe), Some(taps)) = (&self.lobes[m], &material.taps) else {
+        let (Some(lobe), Some(taps), Some((tangent, bitangent, wo_l))) =
+            (&self.lobes[m], &material.taps, frame)
+        else {
             // The irradiance's kept Haar terms and SH can ring below 0 too (see below).
             return b.map(|v| v.max(0.0));
         };
