@@ -212,7 +212,7 @@ fn unusable_compression_settings_are_refused_naming_the_key() {
         ),
         (
             CompressionSettings {
-                cluster_vertices: 0,
+                cluster_vertices: Some(0),
                 ..base
             },
             "vertex.cluster_vertices",
