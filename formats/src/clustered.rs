@@ -30,8 +30,11 @@ use serde::{Deserialize, Serialize};
 pub struct CompressionSettings {
     /// Relative L2 (Frobenius) error allowed per cluster and tensor.
     pub error_target: f32,
-    /// Vertices per cluster aimed at (clusters = ceil(vertices / this)).
-    pub cluster_vertices: u32,
+    /// Vertices per cluster aimed at (clusters = ceil(vertices / this)), or None (absent):
+    /// chosen per group from `error_target`, the smallest stored size among a few candidates
+    /// that meets it (the count chosen is [`GroupCompression::clusters`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cluster_vertices: Option<u32>,
     /// Largest light rank `a`.
     pub max_light_rank: u32,
     /// Largest element rank `r`.
@@ -135,6 +138,25 @@ impl TuckerLayout {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn cluster_vertices_reads_old_metadata_and_auto_is_absent() {
+        let old = r#"{"error_target":0.1,"cluster_vertices":128,"max_light_rank":64,
+            "max_element_rank":64,"max_vertex_rank":32}"#;
+        let s: CompressionSettings = serde_json::from_str(old).unwrap();
+        assert_eq!(s.cluster_vertices, Some(128));
+        // An explicit count is written as before.
+        let text = serde_json::to_string(&s).unwrap();
+        assert!(text.contains("\"cluster_vertices\":128"), "{text}");
+        let auto = CompressionSettings {
+            cluster_vertices: None,
+            ..s
+        };
+        let text = serde_json::to_string(&auto).unwrap();
+        assert!(!text.contains("cluster_vertices"), "{text}");
+        let back: CompressionSettings = serde_json::from_str(&text).unwrap();
+        assert_eq!(back, auto);
+    }
 
     #[test]
     fn offsets_follow_the_ranks_cluster_after_cluster() {

@@ -10,7 +10,8 @@
 //!   material's shading basis, then one row for the irradiance), the function
 //!   `T0~_k(w) = U^i(w_local, k) (w . n)+ V(w)` sampled at the centres of the
 //!   [`DIRECT_CUBE`]-sized cube map's texels, area-weighted-Haar transformed
-//!   (`lighting::HaarCube`), its `t0_terms` largest coefficients kept (index u16, value).
+//!   (`lighting::HaarCube`), its largest coefficients kept (index u16, value; the group's
+//!   [`VertexBakeMeta::group_t0_terms`] of them).
 //!   `sum_t C0[index_t] value_t` is then `integral L T0~_k dw` for a light whose Haar
 //!   coefficients are C0. Rows: `[U^i rows..., irradiance]`; a diffuse material has only the
 //!   irradiance row. Padding terms have index 0 and value 0.
@@ -43,9 +44,10 @@ use crate::family::Family;
 use crate::pixel::{BasisMeta, MaterialMeta, Precision};
 
 /// Version of the per-vertex schema (inside the container's own schema version). Version 2
-/// added compressed T1 and T2 ([`crate::clustered`]); version 1 files (always dense) are
-/// still read.
-pub const VERTEX_SCHEMA_VERSION: u32 = 2;
+/// added compressed T1 and T2 ([`crate::clustered`]); version 3 a per-group count of T0 terms
+/// ([`VertexGroupMeta::t0_terms`]) and clusters chosen from the error target
+/// ([`CompressionSettings::cluster_vertices`] absent). Version 1 and 2 files are still read.
+pub const VERTEX_SCHEMA_VERSION: u32 = 3;
 /// The oldest per-vertex schema version this build reads.
 pub const OLDEST_VERTEX_SCHEMA_VERSION: u32 = 1;
 
@@ -191,6 +193,11 @@ pub struct VertexGroupMeta {
     /// apply to the cores), or dense when absent.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub compression: Option<GroupCompression>,
+    /// Haar terms stored per T0 row of this group, 1 ..= the bake's
+    /// [`VertexBakeMeta::t0_terms`] (the group's T0 tensors are `[vertices, t0_rows, this]`);
+    /// absent: the bake's (schema 1 and 2 files, and uncompressed bakes).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub t0_terms: Option<u32>,
 }
 
 /// A family's Tucker shading basis as stored: the [`ShadingBasis`] with its tables emptied
@@ -208,8 +215,9 @@ pub struct VertexBakeStats {
     pub rays: u64,
     /// Why each material got the slots it has, and the tensors' channel count.
     pub allocation: Vec<String>,
-    /// Per group, the relative L2 error of T0 rows from keeping `t0_terms` Haar terms
-    /// (`||row - kept|| / ||row||` over the group, all rows).
+    /// Per group, the relative L2 error of T0 rows from keeping the group's Haar terms
+    /// ([`VertexBakeMeta::group_t0_terms`]; `||row - kept|| / ||row||` over the group, all
+    /// rows).
     pub t0_truncation_error: Vec<f32>,
 }
 
@@ -239,7 +247,8 @@ pub struct VertexBakeMeta {
     pub channels: u32,
     /// Storage of T0 values, T1 and T2 (stored as "f32" or "f16").
     pub precision: Precision,
-    /// Haar terms kept per T0 row.
+    /// Haar terms kept per T0 row by the trace: the most a group stores (a group may store
+    /// fewer, [`VertexGroupMeta::t0_terms`]).
     pub t0_terms: u32,
     /// Every material of the scene, in scene order (slots numbered globally across them).
     pub materials: Vec<MaterialMeta>,
@@ -268,6 +277,11 @@ pub struct VertexBakeMeta {
 }
 
 impl VertexBakeMeta {
+    /// Haar terms stored per T0 row of group `g`: its own count, or the bake's.
+    pub fn group_t0_terms(&self, g: &VertexGroupMeta) -> usize {
+        g.t0_terms.unwrap_or(self.t0_terms) as usize
+    }
+
     /// Values per vertex of group `g`'s T1 (`384 x J x 16 x channels`).
     pub fn t1_row_len(&self, g: &VertexGroupMeta) -> usize {
         cube_len(T1_LIGHT_CUBE) * g.active.len() * SH_TERMS * self.channels as usize
@@ -355,6 +369,14 @@ impl VertexBakeMeta {
                     m.family
                 ));
             }
+            if let Some(k) = g.t0_terms {
+                if k == 0 || k > self.t0_terms {
+                    return Err(format!(
+                        "group {gi}: t0_terms = {k}, not in 1 ..= the bake's t0_terms {}",
+                        self.t0_terms
+                    ));
+                }
+            }
             if let Some(c) = &g.compression {
                 if c.clusters == 0 && g.vertices > 0 {
                     return Err(format!("group {gi}: compressed with 0 clusters"));
@@ -431,11 +453,12 @@ pub mod names {
     pub fn vertices(g: usize) -> String {
         format!("v{g}.vertices")
     }
-    /// Group `g`'s T0 Haar indices, `[vertices_g, t0_rows, t0_terms]` u16.
+    /// Group `g`'s T0 Haar indices, `[vertices_g, t0_rows, t0_terms_g]` u16 (`t0_terms_g`:
+    /// `VertexBakeMeta::group_t0_terms`).
     pub fn t0_index(g: usize) -> String {
         format!("v{g}.t0.index")
     }
-    /// Group `g`'s T0 Haar values, `[vertices_g, t0_rows, t0_terms]` f32 or f16.
+    /// Group `g`'s T0 Haar values, `[vertices_g, t0_rows, t0_terms_g]` f32 or f16.
     pub fn t0_value(g: usize) -> String {
         format!("v{g}.t0.value")
     }

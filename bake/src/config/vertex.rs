@@ -29,7 +29,9 @@ pub struct VertexConfig {
     /// Relative L2 error allowed per cluster of vertices and tensor, in [0, 1) (default
     /// `crate::vertex::DEFAULT_COMPRESS_ERROR`): the ranks are the smallest meeting it.
     pub compress_error: Option<f32>,
-    /// Vertices per cluster aimed at (default 128).
+    /// Vertices per cluster aimed at; when absent (the default) each group tries
+    /// `crate::vertex::AUTO_CLUSTER_VERTICES` and keeps the smallest result meeting
+    /// `compress_error`.
     pub cluster_vertices: Option<u32>,
     /// Largest light rank per cluster, 1 ..= 384 (default 64).
     pub light_rank: Option<u32>,
@@ -63,14 +65,14 @@ impl VertexConfig {
 
     /// The compression settings, defaults filled in; None when `compress = false`.
     pub fn compression(&self) -> Option<prt_formats::clustered::CompressionSettings> {
-        use crate::vertex::{default_compression, DEFAULT_CLUSTER_VERTICES};
+        use crate::vertex::default_compression;
         if !self.compress.unwrap_or(true) {
             return None;
         }
         let d = default_compression();
         Some(prt_formats::clustered::CompressionSettings {
             error_target: self.compress_error.unwrap_or(d.error_target),
-            cluster_vertices: self.cluster_vertices.unwrap_or(DEFAULT_CLUSTER_VERTICES),
+            cluster_vertices: self.cluster_vertices,
             max_light_rank: self.light_rank.unwrap_or(d.max_light_rank),
             max_element_rank: self.element_rank.unwrap_or(d.max_element_rank),
             max_vertex_rank: self.vertex_rank.unwrap_or(d.max_vertex_rank),

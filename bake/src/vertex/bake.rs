@@ -23,6 +23,7 @@ use super::checkpoint::Checkpoint;
 use super::compress::{compress_group, GroupShape};
 use super::error::VertexError;
 use super::plan::{persisted, VertexPlan, BLOCK_VERTICES};
+use super::t0_choice::{choose_t0_terms, cut_rows, T0_ERROR_SHARE};
 use super::trace::VertexTracer;
 use super::write::{store, Stored};
 use super::{MeshData, VertexBake, VertexBakeOptions, VertexGroupData};
@@ -144,6 +145,33 @@ pub fn bake_vertex_checkpointed(
             }
         }
         trace_rays += buf.rays;
+        let rows = tracer.group_shading(gi).map_or(1, |b| b.ranks.i + 1);
+        // With compression on, T0 keeps the fewest Haar terms meeting its share of the error
+        // target (`t0_choice.rs`); off, every row keeps the `t0_terms` the trace kept.
+        let (t0_terms, t0_note) = match &opts.compression {
+            Some(settings) => {
+                let target = settings.error_target * T0_ERROR_SHARE;
+                let choice = choose_t0_terms(&buf.t0_value, opts.t0_terms, f64::from(target));
+                cut_rows(
+                    &mut buf.t0_index,
+                    &mut buf.t0_value,
+                    opts.t0_terms,
+                    choice.terms,
+                );
+                buf.t0_dropped += choice.cut;
+                let note = format!(
+                    "T0 {} of {} Haar terms per row (error {:.2} % against the {} terms, \
+                     target {:.2} %)",
+                    choice.terms,
+                    opts.t0_terms,
+                    100.0 * choice.error(),
+                    opts.t0_terms,
+                    100.0 * target
+                );
+                (Some(choice.terms as u32), note)
+            }
+            None => (None, String::new()),
+        };
         truncation.push(if buf.t0_total > 0.0 {
             (buf.t0_dropped / buf.t0_total).sqrt() as f32
         } else {
@@ -168,16 +196,18 @@ pub fn bake_vertex_checkpointed(
                     scene,
                     &plan.normals,
                     &g.vertices,
-                    std::mem::take(&mut buf.t1),
-                    std::mem::take(&mut buf.t2),
+                    &buf.t1,
+                    &buf.t2,
                     shape,
                     settings,
                     opts.precision,
                 )?;
                 compress_seconds += compress_start.elapsed().as_secs_f64();
+                buf.t1 = Vec::new();
+                buf.t2 = Vec::new();
                 if let Some(p) = progress {
                     p.note(&format!(
-                        "compressed {}: {}",
+                        "compressed {}: {t0_note}; {}",
                         scene.materials[g.material as usize].name, c.summary
                     ));
                 }
@@ -191,7 +221,6 @@ pub fn bake_vertex_checkpointed(
                 )
             }
         };
-        let rows = tracer.group_shading(gi).map_or(1, |b| b.ranks.i + 1);
         groups_meta.push(VertexGroupMeta {
             material: g.material,
             vertices: g.vertices.len() as u32,
@@ -207,6 +236,7 @@ pub fn bake_vertex_checkpointed(
             scale_t1,
             scale_t2,
             compression,
+            t0_terms,
         });
         groups.push(VertexGroupData {
             vertices: g.vertices.clone(),

@@ -25,8 +25,9 @@ use crate::basis::linalg::{matmul, matmul_tn, sign_fixed_columns, sym_eig_desc};
 use crate::scene::Scene;
 
 use super::cluster::cluster_vertices;
+use super::cluster_choice::{candidate_sizes, describe, pick, ClusterCandidate};
 use super::error::VertexError;
-use super::write::{store, store_unscaled, StoredTucker};
+use super::write::{store, store_unscaled, value_bytes, StoredTucker};
 use super::CompressedGroupData;
 
 /// One cluster's Tucker factors (f32, row-major).
@@ -56,6 +57,13 @@ pub(crate) struct CompressedTensor {
 }
 
 impl CompressedTensor {
+    /// Bytes it stores with `value_bytes` per value: the ranks (u32), factors, cores and
+    /// vertex rows.
+    pub(crate) fn stored_bytes(&self, value_bytes: u64) -> u64 {
+        4 * self.ranks.len() as u64
+            + value_bytes * (self.factors.len() + self.core.len() + self.vertex.len()) as u64
+    }
+
     /// Converts to the storage precision; returns the stored tensor and the core's scale.
     pub(crate) fn store(self, precision: Precision) -> (StoredTucker, f32) {
         let (core, scale) = store(self.core, precision);
@@ -93,18 +101,24 @@ pub(crate) struct CompressedGroup {
     pub scale_t1: f32,
     pub scale_t2: f32,
     pub summary: String,
+    /// Every cluster size tried (one when `cluster_vertices` is given), in order (what the
+    /// summary describes; the tests check the choice against it).
+    #[cfg_attr(not(test), allow(dead_code))]
+    pub tried: Vec<ClusterCandidate>,
 }
 
 /// Clusters a group's vertices (`vertices`, global indices into the scene and `normals`) and
 /// compresses its dense T1 and T2 (`[V][bins][J x elements x channels]` f32, T2 empty when
-/// reflections = 2).
+/// reflections = 2), borrowed: with `settings.cluster_vertices` None every candidate size
+/// (`cluster_choice.rs`) compresses the same tensors, one candidate after another, and only
+/// the best so far is kept beside them.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn compress_group(
     scene: &Scene,
     normals: &[Vec3],
     vertices: &[u32],
-    t1: Vec<f32>,
-    t2: Vec<f32>,
+    t1: &[f32],
+    t2: &[f32],
     shape: GroupShape,
     settings: &CompressionSettings,
     precision: Precision,
@@ -117,27 +131,62 @@ pub(crate) fn compress_group(
         .iter()
         .map(|&v| normals[v as usize].to_array())
         .collect();
-    let wanted = vertices
-        .len()
-        .div_ceil(settings.cluster_vertices.max(1) as usize);
-    let (clusters, count) = cluster_vertices(&positions, &nrm, wanted);
-    let w1 = shape.active * SH_TERMS * shape.channels;
-    let c1 = compress_tensor(&t1, cube_len(T1_LIGHT_CUBE), w1, &clusters, count, settings)?;
-    drop(t1);
-    let c2 = if shape.reflections >= 3 {
-        let w2 = shape.active * shape.t2_slots * shape.channels;
-        Some(compress_tensor(
-            &t2,
-            cube_len(T2_LIGHT_CUBE),
-            w2,
-            &clusters,
-            count,
-            settings,
-        )?)
-    } else {
-        None
+    let value_bytes = value_bytes(precision) as u64;
+    let mut tried: Vec<ClusterCandidate> = Vec::new();
+    let mut best: Option<GroupTuckers> = None;
+    for size in candidate_sizes(settings.cluster_vertices, vertices.len()) {
+        let wanted = vertices.len().div_ceil(size.max(1) as usize);
+        let (clusters, count) = cluster_vertices(&positions, &nrm, wanted);
+        let w1 = shape.active * SH_TERMS * shape.channels;
+        let c1 = compress_tensor(t1, cube_len(T1_LIGHT_CUBE), w1, &clusters, count, settings)?;
+        let c2 = if shape.reflections >= 3 {
+            let w2 = shape.active * shape.t2_slots * shape.channels;
+            Some(compress_tensor(
+                t2,
+                cube_len(T2_LIGHT_CUBE),
+                w2,
+                &clusters,
+                count,
+                settings,
+            )?)
+        } else {
+            None
+        };
+        let candidate = ClusterCandidate {
+            cluster_vertices: size,
+            clusters: count,
+            bytes: 4 * clusters.len() as u64
+                + c1.stored_bytes(value_bytes)
+                + c2.as_ref().map_or(0, |c| c.stored_bytes(value_bytes)),
+            errors: std::iter::once(c1.figures.error)
+                .chain(c2.as_ref().map(|c| c.figures.error))
+                .collect(),
+        };
+        tried.push(candidate);
+        // Keep this candidate if it is the pick among those tried so far: the pick of all is
+        // then the last one kept (`pick` prefers the earlier candidate on ties).
+        if pick(&tried, settings.error_target) == Some(tried.len() - 1) {
+            best = Some(GroupTuckers {
+                clusters,
+                count,
+                t1: c1,
+                t2: c2,
+            });
+        }
+    }
+    let chosen = pick(&tried, settings.error_target).unwrap_or(0);
+    let Some(GroupTuckers {
+        clusters,
+        count,
+        t1: c1,
+        t2: c2,
+    }) = best
+    else {
+        return Err(VertexError::Compression(
+            "no cluster size to compress with".into(),
+        ));
     };
-    let describe = |name: &str, c: &CompressedTensor| {
+    let describe_tensor = |name: &str, c: &CompressedTensor| {
         let k = (c.ranks.len() / 3).max(1);
         let mean = |i: usize| {
             c.ranks
@@ -173,10 +222,14 @@ pub(crate) fn compress_group(
         "{count} clusters of {} vertices (target error {:.1} %); {}",
         vertices.len().div_ceil(count.max(1)),
         100.0 * settings.error_target,
-        describe("T1", &c1)
+        describe_tensor("T1", &c1)
     );
     if let Some(c2) = &c2 {
-        summary.push_str(&format!("; {}", describe("T2", c2)));
+        summary.push_str(&format!("; {}", describe_tensor("T2", c2)));
+    }
+    let why = describe(&tried, chosen, settings.error_target);
+    if !why.is_empty() {
+        summary.push_str(&format!("; {why}"));
     }
     let meta = GroupCompression {
         clusters: count as u32,
@@ -197,7 +250,16 @@ pub(crate) fn compress_group(
         scale_t1,
         scale_t2,
         summary,
+        tried,
     })
+}
+
+/// One candidate's clusters and compressed tensors.
+struct GroupTuckers {
+    clusters: Vec<u32>,
+    count: usize,
+    t1: CompressedTensor,
+    t2: Option<CompressedTensor>,
 }
 
 /// Compresses a group's dense tensor `t` (`[V][bins][width]` f32) with the vertices'
@@ -372,7 +434,7 @@ mod tests {
     fn settings(target: f32, caps: [u32; 3]) -> CompressionSettings {
         CompressionSettings {
             error_target: target,
-            cluster_vertices: 64,
+            cluster_vertices: Some(64),
             max_light_rank: caps[0],
             max_element_rank: caps[1],
             max_vertex_rank: caps[2],

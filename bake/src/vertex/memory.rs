@@ -16,6 +16,7 @@ use prt_formats::vertex::{cube_len, VISIBILITY_CUBE};
 use crate::pixel::memory::{basis_build_bytes, scene_bytes, PROCESS_BYTES};
 use crate::scene::{Environment, Scene};
 
+use super::cluster_choice::candidate_sizes;
 use super::direct::T0_TEXELS;
 use super::plan::VertexPlan;
 use super::VertexBakeOptions;
@@ -69,7 +70,11 @@ impl VertexPlan {
                 .iter()
                 .map(|g| {
                     let (_, t1, t2) = self.values_per_vertex(g, g.planned_t0_rows(), opts);
-                    let n = g.vertices.len().min(2 * c.cluster_vertices as usize);
+                    let largest = candidate_sizes(c.cluster_vertices, g.vertices.len())
+                        .into_iter()
+                        .max()
+                        .unwrap_or(1);
+                    let n = g.vertices.len().min(2 * largest as usize);
                     3 * 8 * (n * t1.max(t2)) as u64
                 })
                 .max()
@@ -151,7 +156,8 @@ pub struct VertexMemoryEstimate {
 impl VertexPlan {
     /// An upper bound of what group `g` stores when compressed with `c`: T0, the visibility of
     /// a group with a lobe, the cluster of each vertex, and per compressed tensor its factors,
-    /// cores and vertex rows at the rank caps (clusters of `cluster_vertices`).
+    /// cores and vertex rows at the rank caps (clusters of `cluster_vertices`, or of whichever
+    /// candidate size would store the most when it is chosen per group).
     fn compressed_bytes(
         &self,
         g: &super::plan::PlannedGroup,
@@ -162,24 +168,30 @@ impl VertexPlan {
         let p = super::write::value_bytes(opts.precision) as u64;
         let v = g.vertices.len() as u64;
         let (t0, t1, t2) = self.values_per_vertex(g, g.planned_t0_rows(), opts);
-        let clusters = v.div_ceil(u64::from(c.cluster_vertices.max(1)));
-        let b = u64::from(c.max_vertex_rank.min(c.cluster_vertices.saturating_mul(2)));
-        let tucker = |bins: usize, values: usize| -> u64 {
+        let tucker = |size: u32, bins: usize, values: usize| -> u64 {
             if values == 0 {
                 return 0;
             }
+            let clusters = v.div_ceil(u64::from(size.max(1)));
+            let b = u64::from(c.max_vertex_rank.min(size.saturating_mul(2)));
             let width = (values / bins) as u64;
             let a = u64::from(c.max_light_rank).min(bins as u64);
             let r = u64::from(c.max_element_rank).min(width);
             (clusters * (bins as u64 * a + width * r + b * a * r) + v * b) * p
         };
+        let tuckers = candidate_sizes(c.cluster_vertices, g.vertices.len())
+            .into_iter()
+            .map(|size| {
+                tucker(size, cube_len(T1_LIGHT_CUBE), t1)
+                    + tucker(size, cube_len(T2_LIGHT_CUBE), t2)
+            })
+            .max()
+            .unwrap_or(0);
         let visibility = if g.lobe.is_some() {
             cube_len(VISIBILITY_CUBE) as u64
         } else {
             0
         };
-        v * (8 + t0 as u64 * (2 + p) + visibility)
-            + tucker(cube_len(T1_LIGHT_CUBE), t1)
-            + tucker(cube_len(T2_LIGHT_CUBE), t2)
+        v * (8 + t0 as u64 * (2 + p) + visibility) + tuckers
     }
 }

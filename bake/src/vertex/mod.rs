@@ -30,6 +30,7 @@ mod bins;
 mod buffers;
 mod checkpoint;
 mod cluster;
+mod cluster_choice;
 mod compress;
 mod direct;
 mod error;
@@ -37,6 +38,7 @@ mod fingerprint;
 mod frame;
 mod memory;
 mod plan;
+mod t0_choice;
 mod trace;
 mod write;
 
@@ -144,8 +146,9 @@ impl VertexBakeOptions {
 
 /// Default relative L2 error per cluster of compressed T1 and T2 (`[vertex] compress_error`).
 pub const DEFAULT_COMPRESS_ERROR: f32 = 0.1;
-/// Default vertices per cluster (`[vertex] cluster_vertices`).
-pub const DEFAULT_CLUSTER_VERTICES: u32 = 128;
+/// Vertices per cluster tried when `[vertex] cluster_vertices` is not given (the default):
+/// each group keeps the one that meets the error target at the smallest size.
+pub use cluster_choice::AUTO_CLUSTER_VERTICES;
 /// Default largest light rank (`[vertex] light_rank`): the thesis' light dimension.
 pub const DEFAULT_LIGHT_RANK: u32 = 64;
 /// Default largest element rank (`[vertex] element_rank`).
@@ -157,7 +160,7 @@ pub const DEFAULT_VERTEX_RANK: u32 = 32;
 pub fn default_compression() -> CompressionSettings {
     CompressionSettings {
         error_target: DEFAULT_COMPRESS_ERROR,
-        cluster_vertices: DEFAULT_CLUSTER_VERTICES,
+        cluster_vertices: None,
         max_light_rank: DEFAULT_LIGHT_RANK,
         max_element_rank: DEFAULT_ELEMENT_RANK,
         max_vertex_rank: DEFAULT_VERTEX_RANK,
@@ -174,7 +177,7 @@ fn validate_compression(c: &CompressionSettings) -> Result<(), VertexError> {
         });
     }
     for (key, v) in [
-        ("vertex.cluster_vertices", c.cluster_vertices),
+        ("vertex.cluster_vertices", c.cluster_vertices.unwrap_or(1)),
         ("vertex.light_rank", c.max_light_rank),
         ("vertex.element_rank", c.max_element_rank),
         ("vertex.vertex_rank", c.max_vertex_rank),
@@ -194,9 +197,10 @@ fn validate_compression(c: &CompressionSettings) -> Result<(), VertexError> {
 pub struct VertexGroupData {
     /// Global vertex indices, ascending.
     pub vertices: Vec<u32>,
-    /// `[vertices, t0_rows, t0_terms]` Haar indices.
+    /// `[vertices, t0_rows, K]` Haar indices (K: the group's `t0_terms` when compressed, or
+    /// the bake's).
     pub t0_index: Vec<u16>,
-    /// `[vertices, t0_rows, t0_terms]` Haar values (divided by the group's `scale_t0`).
+    /// `[vertices, t0_rows, K]` Haar values (divided by the group's `scale_t0`).
     pub t0_value: Stored,
     /// `[vertices, 6 * 16 * 16]` visible fractions, 255 = all, for a group with a specular
     /// lobe; empty (`[vertices, 0]`) for one without.

@@ -361,10 +361,16 @@ impl VertexPlan {
         ));
         if let Some(c) = &opts.compression {
             r.push_str(&format!(
-                " before compression: T1 and T2 are stored compressed (clusters of about {} \
+                " before compression: T1 and T2 are stored compressed (clusters of {} \
                  vertices, error target {} %, ranks at most {} light x {} element x {} vertex; \
-                 the ranks chosen are reported per group)",
-                c.cluster_vertices,
+                 the clusters, ranks and T0 terms chosen are reported per group)",
+                match c.cluster_vertices {
+                    Some(n) => format!("about {n}"),
+                    None => format!(
+                        "{:?} (per group the smallest result meeting the target)",
+                        super::AUTO_CLUSTER_VERTICES
+                    ),
+                },
                 100.0 * c.error_target,
                 c.max_light_rank,
                 c.max_element_rank,

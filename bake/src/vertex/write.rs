@@ -134,7 +134,7 @@ fn writer(bake: &VertexBake) -> Result<BakeWriter<'_>, FormatError> {
     let i_n = meta.t2_slots.len();
     for (g, (data, gm)) in bake.groups.iter().zip(&meta.groups).enumerate() {
         let v = gm.vertices as usize;
-        let (rows, terms) = (gm.t0_rows as usize, meta.t0_terms as usize);
+        let (rows, terms) = (gm.t0_rows as usize, meta.group_t0_terms(gm));
         let j = gm.active.len();
         w.add_u32(&names::vertices(g), &[v], &data.vertices)?;
         w.add_u16(&names::t0_index(g), &[v, rows, terms], &data.t0_index)?;

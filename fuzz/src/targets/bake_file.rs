@@ -168,7 +168,7 @@ fn tiny_vertex_bake(out: &Path, compressed: bool) -> anyhow::Result<Vec<u8>> {
         t0_terms: 8,
         compression: compressed.then_some(prt_formats::clustered::CompressionSettings {
             error_target: 0.1,
-            cluster_vertices: 4,
+            cluster_vertices: Some(4),
             max_light_rank: 8,
             max_element_rank: 8,
             max_vertex_rank: 3,

@@ -257,7 +257,6 @@ pub(super) fn light_stage(
     light: &LightCoefficients,
 ) -> Result<Vec<GroupLight>, RuntimeError> {
     let channels = meta.channels as usize;
-    let terms = meta.t0_terms as usize;
     let c1 = light.one_bounce.texels();
     let c2 = light.two_bounce.texels();
     let n_i = meta.t2_slots.len();
@@ -271,6 +270,7 @@ pub(super) fn light_stage(
         let nv = layout.vertices.len();
         let rows = layout.rows;
         let j = layout.active;
+        let terms = meta.group_t0_terms(gm);
 
         // T0: sparse Haar dots, per row.
         let index = file.tensor(&names::t0_index(g))?.as_u16()?;

@@ -193,7 +193,7 @@ pub(super) fn validate(file: &BakeFile) -> Result<(VertexBakeMeta, Scene), Runti
             *slot = (g as u32, local as u32);
         }
         let rows = gm.t0_rows as usize;
-        let terms = meta.t0_terms as usize;
+        let terms = meta.group_t0_terms(gm);
         c.typed(&names::t0_index(g), Dtype::U16, &[vg, rows, terms])?;
         let index = file.tensor(&names::t0_index(g))?.as_u16()?;
         let limit = cube_len(DIRECT_CUBE);

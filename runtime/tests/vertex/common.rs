@@ -359,6 +359,38 @@ pub fn camera(eye: [f32; 3], fov: f32) -> CameraFrame {
 }
 
 impl Bake {
+    /// Sets group `g`'s own count of T0 terms (schema 3) in the metadata only.
+    pub fn groups_meta_t0_terms(&mut self, g: usize, terms: u32) {
+        self.meta.groups[g].t0_terms = Some(terms);
+    }
+
+    /// Keeps only the first `k` terms of every T0 row of group `g`: stored as `k` terms with
+    /// the group's own count (schema 3) when `own_count`, else padded back to the bake's count
+    /// with (index 0, value 0) as an older writer would. Both say the same.
+    pub fn cut_t0(&mut self, g: usize, k: usize, own_count: bool) {
+        let group = &mut self.groups[g];
+        let terms = group.t0_shape[2];
+        let (mut index, mut value) = (Vec::new(), Vec::new());
+        for (i, v) in group
+            .t0_index
+            .chunks_exact(terms)
+            .zip(group.t0_value.chunks_exact(terms))
+        {
+            index.extend_from_slice(&i[..k]);
+            value.extend_from_slice(&v[..k]);
+            if !own_count {
+                index.extend(std::iter::repeat_n(0u16, terms - k));
+                value.extend(std::iter::repeat_n(0.0f32, terms - k));
+            }
+        }
+        group.t0_index = index;
+        group.t0_value = value;
+        if own_count {
+            group.t0_shape[2] = k;
+            self.meta.groups[g].t0_terms = Some(k as u32);
+        }
+    }
+
     /// One group per material over the mesh's vertices of that material, materials as
     /// given (slots numbered here), a constant environment, the tensors' scales 1.
     pub fn new(
@@ -381,6 +413,7 @@ impl Bake {
                 scale_t1: 1.0,
                 scale_t2: 1.0,
                 compression: None,
+                t0_terms: None,
             })
             .collect();
         let n_i = groups.first().map_or(0, |g| g.1.t2_shape[3]);

@@ -72,6 +72,40 @@ fn the_reference_bake_opens() {
     assert!(img.iter().all(|v| v.is_finite()));
 }
 
+/// Schema 3 gives each group its own count of T0 terms (at most the bake's); older files have
+/// none and use the bake's. A group cut to fewer terms relights exactly like the same terms
+/// padded to the bake's count, and older schemas still open.
+#[test]
+fn group_t0_terms_are_read_and_older_schemas_still_open() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let cam = camera([1.5, 2.0, 3.0], 50.0);
+    let relit = |b: &Bake, name: &str| {
+        let path = dir.path().join(name);
+        b.write(&path);
+        render(
+            &mut VertexRelighter::open(&path).expect("open"),
+            &cam,
+            16,
+            16,
+        )
+    };
+    let keep = 300;
+    let mut padded = two_quads();
+    padded.cut_t0(1, keep, false);
+    let mut own = two_quads();
+    own.cut_t0(1, keep, true);
+    assert_eq!(own.meta.groups[1].t0_terms, Some(keep as u32));
+    assert!(own.meta.t0_terms as usize > keep);
+    let reference = relit(&padded, "padded.prtbake");
+    assert!(relit(&own, "own.prtbake") == reference, "own count");
+    for version in [1, 2] {
+        let mut old = padded.clone();
+        old.meta.vertex_schema_version = version;
+        let img = relit(&old, &format!("schema{version}.prtbake"));
+        assert!(img == reference, "schema {version}");
+    }
+}
+
 #[test]
 fn a_bake_of_the_other_kind_is_refused_with_what_to_use() {
     let dir = tempfile::tempdir().expect("temp dir");
@@ -185,6 +219,27 @@ fn each_corruption_is_refused_naming_the_tensor() {
                 b.set_latlong(8, 4, map, 0.0);
             },
             &["environment", "NaN or infinite"],
+        ),
+        (
+            "a group storing 0 T0 terms",
+            |b| b.groups_meta_t0_terms(0, 0),
+            &["group 0", "t0_terms = 0", "1 ..= the bake's t0_terms"],
+        ),
+        (
+            "a group storing more T0 terms than the bake kept",
+            |b| {
+                let above = b.meta.t0_terms + 1;
+                b.groups_meta_t0_terms(1, above);
+            },
+            &["group 1", "t0_terms =", "1 ..= the bake's t0_terms"],
+        ),
+        (
+            "a group's T0 terms that do not match its tensors",
+            |b| {
+                let fewer = b.meta.t0_terms - 1;
+                b.groups_meta_t0_terms(1, fewer);
+            },
+            &["v1.t0.index", "shape"],
         ),
         (
             "another schema version",

@@ -61,7 +61,7 @@ fn relit(name: &str, compression: Option<CompressionSettings>) -> VertexRelighte
 fn settings(target: f32, caps: u32) -> CompressionSettings {
     CompressionSettings {
         error_target: target,
-        cluster_vertices: 24,
+        cluster_vertices: Some(24),
         max_light_rank: caps.min(384),
         max_element_rank: caps,
         max_vertex_rank: caps,

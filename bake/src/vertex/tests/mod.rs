@@ -2,9 +2,11 @@
 //! `direct`: the Haar metric, T0 and the visibility against direct texel sums; `transfer`: T1
 //! against the closed form of a Lambert wall and against an independent projection of the
 //! traced paths, the pre-pass's active slots; `run`: determinism across thread counts, the
-//! refusals, the allocation report and `--max-memory`, the file).
+//! refusals, the allocation report and `--max-memory`, the file; `choice`: the clusters and
+//! T0 terms chosen from the error target).
 #![allow(clippy::needless_range_loop)]
 
+mod choice;
 mod direct;
 mod run;
 mod transfer;

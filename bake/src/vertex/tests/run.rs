@@ -33,6 +33,48 @@ fn the_file_does_not_depend_on_the_thread_count() {
     assert!(one == bytes(2), "1 and 2 threads give different files");
 }
 
+/// With compression on, the clusters and T0 terms are chosen per group (three cluster sizes
+/// tried on the 642-vertex ball): the choice must not depend on the thread count either.
+#[test]
+fn the_compressed_file_does_not_depend_on_the_thread_count() {
+    let mut b = SceneBuilder::new();
+    let floor = b.material("floor", lambert(0.5), Vec3::ZERO, true);
+    let ball = b.material("ball", lambert(0.7), Vec3::ZERO, true);
+    let s = 1.5;
+    b.quad(
+        [
+            Vec3::new(-s, 0.0, s),
+            Vec3::new(s, 0.0, s),
+            Vec3::new(s, 0.0, -s),
+            Vec3::new(-s, 0.0, -s),
+        ],
+        floor,
+    );
+    b.sphere(Vec3::new(0.0, 0.7, 0.0), 0.5, 3, ball);
+    b.environment(crate::scene::Environment::Constant(Vec3::ONE));
+    let scene = b.build();
+    let opts = VertexBakeOptions {
+        samples: 4,
+        secondary: 1,
+        t0_terms: 32,
+        compression: Some(default_compression()),
+        ..Default::default()
+    };
+    let bytes = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let bake = bake_vertex(&scene, &[], &[], &opts, None).unwrap();
+            assert!(bake.meta.groups.iter().all(|g| g.t0_terms.is_some()));
+            vertex_file_bytes(&bake).unwrap()
+        })
+    };
+    let one = bytes(1);
+    assert!(one == bytes(2), "1 and 2 threads give different files");
+}
+
 #[test]
 fn refusals_name_the_problem() {
     let opts = VertexBakeOptions {
@@ -212,7 +254,7 @@ fn unusable_compression_settings_are_refused_naming_the_key() {
         ),
         (
             CompressionSettings {
-                cluster_vertices: 0,
+                cluster_vertices: Some(0),
                 ..base
             },
             "vertex.cluster_vertices",
