@@ -145,7 +145,6 @@ pub fn bake_vertex_checkpointed(
             }
         }
         trace_rays += buf.rays;
-        let rows = tracer.group_shading(gi).map_or(1, |b| b.ranks.i + 1);
         // With compression on, T0 keeps the fewest Haar terms meeting its share of the error
         // target (`t0_choice.rs`); off, every row keeps the `t0_terms` the trace kept.
         let (t0_terms, t0_note) = match &opts.compression {
@@ -203,6 +202,7 @@ pub fn bake_vertex_checkpointed(
                     opts.precision,
                 )?;
                 compress_seconds += compress_start.elapsed().as_secs_f64();
+                // The candidates borrowed the f32 tensors; free them before the next group.
                 buf.t1 = Vec::new();
                 buf.t2 = Vec::new();
                 if let Some(p) = progress {
@@ -221,6 +221,7 @@ pub fn bake_vertex_checkpointed(
                 )
             }
         };
+        let rows = tracer.group_shading(gi).map_or(1, |b| b.ranks.i + 1);
         groups_meta.push(VertexGroupMeta {
             material: g.material,
             vertices: g.vertices.len() as u32,

@@ -361,15 +361,18 @@ impl VertexPlan {
         ));
         if let Some(c) = &opts.compression {
             r.push_str(&format!(
-                " before compression: T1 and T2 are stored compressed (clusters of {} \
-                 vertices, error target {} %, ranks at most {} light x {} element x {} vertex; \
-                 the clusters, ranks and T0 terms chosen are reported per group)",
+                " before compression: T1 and T2 are stored compressed ({}, error target {} %, \
+                 ranks at most {} light x {} element x {} vertex; the clusters, ranks and T0 \
+                 terms chosen are reported per group)",
                 match c.cluster_vertices {
-                    Some(n) => format!("about {n}"),
-                    None => format!(
-                        "{:?} (per group the smallest result meeting the target)",
-                        super::AUTO_CLUSTER_VERTICES
-                    ),
+                    Some(n) => format!("clusters of about {n} vertices"),
+                    None => {
+                        let [a, b, d] = super::AUTO_CLUSTER_VERTICES;
+                        format!(
+                            "clusters of {a}, {b} or {d} vertices, per group the smallest \
+                             result meeting the target"
+                        )
+                    }
                 },
                 100.0 * c.error_target,
                 c.max_light_rank,
