@@ -29,9 +29,9 @@ pub struct VertexConfig {
     /// Relative L2 error allowed per cluster of vertices and tensor, in [0, 1) (default
     /// `crate::vertex::DEFAULT_COMPRESS_ERROR`): the ranks are the smallest meeting it.
     pub compress_error: Option<f32>,
-    /// Vertices per cluster aimed at; when absent (the default) each group tries
-    /// `crate::vertex::AUTO_CLUSTER_VERTICES` and keeps the smallest result meeting
-    /// `compress_error`.
+    /// Vertices per cluster aimed at; when absent (the default) each group starts at 128 and
+    /// tries a neighbour of `crate::vertex::AUTO_CLUSTER_VERTICES`, keeping the smallest result
+    /// meeting `compress_error` (128 when none does).
     pub cluster_vertices: Option<u32>,
     /// Largest light rank per cluster, 1 ..= 384 (default 64).
     pub light_rank: Option<u32>,

@@ -25,7 +25,7 @@ use crate::basis::linalg::{matmul, matmul_tn, sign_fixed_columns, sym_eig_desc};
 use crate::scene::Scene;
 
 use super::cluster::cluster_vertices;
-use super::cluster_choice::{candidate_sizes, describe, pick, ClusterCandidate};
+use super::cluster_choice::{describe, next_size, pick, ClusterCandidate};
 use super::error::VertexError;
 use super::write::{store, store_unscaled, value_bytes, StoredTucker};
 use super::CompressedGroupData;
@@ -134,7 +134,12 @@ pub(crate) fn compress_group(
     let value_bytes = value_bytes(precision) as u64;
     let mut tried: Vec<ClusterCandidate> = Vec::new();
     let mut best: Option<GroupTuckers> = None;
-    for size in candidate_sizes(settings.cluster_vertices, vertices.len()) {
+    while let Some(size) = next_size(
+        settings.cluster_vertices,
+        vertices.len(),
+        &tried,
+        settings.error_target,
+    ) {
         let wanted = vertices.len().div_ceil(size.max(1) as usize);
         let (clusters, count) = cluster_vertices(&positions, &nrm, wanted);
         let w1 = shape.active * SH_TERMS * shape.channels;

@@ -369,8 +369,8 @@ impl VertexPlan {
                     None => {
                         let [a, b, d] = super::AUTO_CLUSTER_VERTICES;
                         format!(
-                            "clusters of {a}, {b} or {d} vertices, per group the smallest \
-                             result meeting the target"
+                            "clusters of {b} vertices, or {d} or {a} per group when that is \
+                             the smallest result meeting the target"
                         )
                     }
                 },
