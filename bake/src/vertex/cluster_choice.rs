@@ -37,11 +37,6 @@ pub(crate) struct ClusterCandidate {
 }
 
 impl ClusterCandidate {
-    /// Its largest error over the tensors.
-    pub fn worst_error(&self) -> f32 {
-        self.errors.iter().copied().fold(0.0, f32::max)
-    }
-
     /// Whether every tensor meets `target`.
     pub fn meets(&self, target: f32) -> bool {
         self.errors
@@ -175,8 +170,8 @@ mod tests {
         // Met at 128: try larger clusters; missed: try smaller ones; then stop.
         let met = candidate(128, 10, &[0.05]);
         let missed = candidate(128, 10, &[0.3]);
-        assert_eq!(next_size(None, 5000, &[met.clone()], target), Some(256));
-        assert_eq!(next_size(None, 5000, &[missed.clone()], target), Some(64));
+        assert_eq!(next_size(None, 5000, std::slice::from_ref(&met), target), Some(256));
+        assert_eq!(next_size(None, 5000, std::slice::from_ref(&missed), target), Some(64));
         assert_eq!(next_size(None, 5000, &[missed, met], target), None);
         // A small group: the sizes that make distinct cluster counts only.
         assert_eq!(next_size(None, 100, &[], target), Some(128));
