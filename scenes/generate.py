@@ -774,8 +774,9 @@ def gallery(bunny_js):
 # environment map (scenes/generate.py; map: scenes/envmaps/README.md).
 #
 # Made for the per-vertex mode (dynamic light, view and materials; docs/vertex.md): 46 483
-# vertices. Uncompressed, the bake is about 5.7 GB at f16 and needs about 13 GB of memory
-# (the allocation report says so before tracing); `relight` then renders any view, light and
+# vertices. Compressed (the default, docs/vertex.md section 7) the file is about 130 MB and the
+# bake needs about 8 GB of memory (dense, `[vertex] compress = false`: 5.7 GB and 13 GB; the
+# allocation report says so before tracing); `relight` then renders any view, light and
 # material setting. (`width` and `height` are the per-pixel mode's; vertex mode ignores them.)
 scene = "gallery.gltf"
 mode = "vertex"
