@@ -84,24 +84,37 @@ struct Plan<'a> {
     one_trace: bool,
     size: u32,
     time: bool,
+    /// Also bake the dense bake with another seed (not timed).
+    noise_floor: bool,
 }
 
 fn run_scene(args: &VertexArgs, plan: Plan, spp: u32, rounds: usize) -> Result<SceneRun> {
     let (config, scene) = load(plan.config, &Silent)?;
     let dir = &args.work_dir;
-    let baked = if plan.one_trace {
-        sweep::bake_from_one_trace(&config, &scene, &plan.settings, dir, plan.stem, args.quick)?
+    let mut settings = plan.settings;
+    let mut baked = if plan.one_trace {
+        sweep::bake_from_one_trace(&config, &scene, &settings, dir, plan.stem, args.quick)?
     } else {
-        sweep::bake_each(&config, &scene, &plan.settings, dir, plan.stem, args.quick)?
+        sweep::bake_each(&config, &scene, &settings, dir, plan.stem, args.quick)?
     };
+    let timed = baked.len();
+    if plan.noise_floor {
+        let noise = Setting::noise_floor();
+        let stem = format!("{}-noise", plan.stem);
+        let one = std::slice::from_ref(&noise);
+        baked.extend(sweep::bake_each(
+            &config, &scene, one, dir, &stem, args.quick,
+        )?);
+        settings.push(noise);
+    }
     let references = references(&config, &scene, plan.size, spp)?;
     let paths: Vec<&Path> = baked.iter().map(|b| b.path.as_path()).collect();
-    let dense = plan.settings.iter().position(|s| !s.compress);
+    let dense = settings.iter().position(|s| !s.compress);
     let intensity = map_intensity(&config);
     let errors = errors(&paths, dense, &references, intensity, plan.size)?;
     let times = if plan.time {
         time_paths(
-            &paths,
+            &paths[..timed],
             &editable_material(&config),
             intensity,
             plan.size,
@@ -117,7 +130,7 @@ fn run_scene(args: &VertexArgs, plan: Plan, spp: u32, rounds: usize) -> Result<S
         config: plan.config.to_path_buf(),
         vertices: scene.positions.len(),
         size: plan.size,
-        settings: plan.settings,
+        settings,
         baked,
         errors,
         times,
@@ -156,6 +169,7 @@ pub fn run(args: &VertexArgs) -> Result<()> {
             one_trace: true,
             size,
             time: true,
+            noise_floor: true,
         },
         spp,
         rounds,
@@ -169,6 +183,7 @@ pub fn run(args: &VertexArgs) -> Result<()> {
             one_trace: false,
             size: detail_size,
             time: false,
+            noise_floor: false,
         },
         spp,
         rounds,
@@ -183,6 +198,7 @@ pub fn run(args: &VertexArgs) -> Result<()> {
                 one_trace: false,
                 size,
                 time: true,
+                noise_floor: false,
             },
             spp,
             rounds,

@@ -7,7 +7,7 @@ use anyhow::Result;
 
 use super::measure::LIGHTS;
 use super::SceneRun;
-use crate::pictures::{auto_exposure, side_by_side};
+use crate::pictures::{auto_exposure, side_by_side_with, Panels};
 use crate::plot::{LinePlot, Series, PALETTE};
 use crate::util::{link, ms, pct};
 
@@ -79,6 +79,8 @@ fn setting_rows(s: &SceneRun, with_dense: bool) -> String {
                 ms(t.view_brdf),
                 ms(t.view_brdf_light)
             );
+        } else if !s.times.is_empty() {
+            rows.push_str(" | not timed | not timed | not timed");
         }
         rows.push_str(" |\n");
     }
@@ -199,7 +201,12 @@ fn speed_plots(s: &SceneRun, inputs: &Inputs) -> Result<Vec<String>> {
     ])
 }
 
-/// relit | reference | difference x 10 of a scene's first setting, per light.
+/// The pictures' difference gain (the relit images' per-vertex noise saturates x 10).
+const DIFFERENCE_GAIN: f32 = 4.0;
+/// Each picture pixel averages 2 x 2 rendered ones: 256-pixel panels keep the docs small.
+const PICTURE_SHRINK: u32 = 2;
+
+/// relit | reference | difference of a scene's first setting, per light.
 fn pictures(s: &SceneRun, inputs: &Inputs) -> Result<Vec<String>> {
     let name = scene_name(&s.config);
     let from = inputs.out.parent().unwrap_or(Path::new("."));
@@ -209,22 +216,39 @@ fn pictures(s: &SceneRun, inputs: &Inputs) -> Result<Vec<String>> {
         let path = inputs
             .img_dir
             .join(format!("report-{name}-{}.png", light.slug));
-        side_by_side(
+        let panels = Panels {
+            exposure: auto_exposure(reference),
+            gain: DIFFERENCE_GAIN,
+            shrink: PICTURE_SHRINK,
+        };
+        side_by_side_with(
             &s.errors[0].images[li],
             reference,
             s.size,
             s.size,
-            auto_exposure(reference),
+            panels,
             &path,
         )?;
         out.push(format!(
-            "![{name}, {}: relit ({}) | reference | difference x 10]({})",
+            "![{name}, {}: relit ({}) | reference | difference x {DIFFERENCE_GAIN}]({})",
             light.name,
             s.settings[0].label,
             link(from, &path)
         ));
     }
     Ok(out)
+}
+
+/// The noise floor's distance from the dense relight, per light ("n/a" without one).
+fn noise_floor(s: &SceneRun) -> String {
+    match s.settings.iter().position(|x| x.seed_offset != 0) {
+        Some(i) => format!(
+            "{} under the baked light and {} under the turned studio map",
+            pct(s.errors[i].vs_dense[0]),
+            pct(s.errors[i].vs_dense[1])
+        ),
+        None => "n/a".into(),
+    }
 }
 
 /// The goals of the per-vertex mode, checked on the main scene's defaults (setting 0).
@@ -359,6 +383,11 @@ pub(crate) fn write(inputs: &Inputs) -> Result<String> {
         ("shade_ms", ms(t0.view_stage - t0.raster)),
         ("material_ms", ms(t0.material)),
         ("light_ms", ms(t0.light)),
+        ("noise", noise_floor(m)),
+        (
+            "worst_dense",
+            pct(m.errors[0].vs_dense.iter().copied().fold(0.0, f64::max)),
+        ),
         (
             "shade_ns",
             format!(

@@ -29,6 +29,8 @@ pub(crate) struct Setting {
     pub light_rank: Option<u32>,
     pub t0_terms: Option<u32>,
     pub spp: Option<u32>,
+    /// Added to the config's seed (the noise floor's second dense bake).
+    pub seed_offset: u64,
 }
 
 impl Setting {
@@ -44,6 +46,18 @@ impl Setting {
             light_rank: None,
             t0_terms: None,
             spp: None,
+            seed_offset: 0,
+        }
+    }
+
+    /// A dense bake with another seed: its distance from the dense bake is the Monte Carlo
+    /// noise of the dense tensors, the floor under any "against the dense relight" error.
+    pub(crate) fn noise_floor() -> Setting {
+        Setting {
+            label: "dense, seed + 1 (noise floor)".into(),
+            compress: false,
+            seed_offset: 1,
+            ..Setting::defaults()
         }
     }
 
@@ -60,6 +74,7 @@ impl Setting {
         if let Some(spp) = self.spp {
             c.spp = spp;
         }
+        c.seed += self.seed_offset;
         c
     }
 }

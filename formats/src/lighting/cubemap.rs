@@ -429,76 +429,10 @@ impl CubeMap {
         size: usize,
         rotation_deg: f64,
     ) -> Result<Self, LightingError> {
-        check_size(size)?;
-        if width == 0 {
-            return Err(LightingError::ZeroSize {
-                what: "lat-long width",
-            });
-        }
-        if height == 0 {
-            return Err(LightingError::ZeroSize {
-                what: "lat-long height",
-            });
-        }
-        let expected = width.checked_mul(height).ok_or(LightingError::TooLarge {
-            what: "lat-long width x height",
-            value: width,
-            max: usize::MAX / height,
-        })?;
-        if texels.len() != expected {
-            return Err(LightingError::LengthMismatch {
-                what: "lat-long texels",
-                expected,
-                got: texels.len(),
-            });
-        }
-        check_finite_rgb("lat-long texels", texels)?;
-        if !rotation_deg.is_finite() {
-            return Err(LightingError::InvalidParameter {
-                what: "rotation angle",
-                expected: "finite",
-                value: rotation_deg,
-            });
-        }
-
-        let m = subsamples_per_texel(size, width, height);
-        let ns = size * m;
-        // The sub-sample grid is the same on every face: its centres in face coordinates and
-        // its exact solid angles.
-        let centre = |k: usize| 2.0 * (k as f64 + 0.5) / ns as f64 - 1.0;
-        let weights = sub_grid_solid_angles(ns);
-        // Radiance arriving from d is the source's radiance from R_y(-angle) d.
-        let back = rotation_y(-rotation_deg);
+        let resample = LatLongToCube::new(texels, width, height, size, rotation_deg)?;
         let mut out = Vec::with_capacity(6 * size * size);
-        let mut acc = vec![[0.0f64; 4]; size * size];
         for face in Face::ALL {
-            acc.iter_mut().for_each(|a| *a = [0.0; 4]);
-            for l in 0..ns {
-                let b = centre(l);
-                let row = (l / m) * size;
-                for k in 0..ns {
-                    let d = mat_vec(&back, normalize(face_ab_to_vector(face, centre(k), b)));
-                    let v = latlong::lookup_bilinear(
-                        texels,
-                        width,
-                        height,
-                        [d[0] as f32, d[1] as f32, d[2] as f32],
-                    );
-                    let w = weights[l * ns + k];
-                    let a = &mut acc[row + k / m];
-                    a[0] += w * v[0] as f64;
-                    a[1] += w * v[1] as f64;
-                    a[2] += w * v[2] as f64;
-                    a[3] += w;
-                }
-            }
-            out.extend(acc.iter().map(|a| {
-                [
-                    (a[0] / a[3]) as f32,
-                    (a[1] / a[3]) as f32,
-                    (a[2] / a[3]) as f32,
-                ]
-            }));
+            out.extend(resample.face(face));
         }
         CubeMap::new(size, out)
     }
@@ -615,6 +549,114 @@ pub fn subsamples_per_texel(size: usize, width: usize, height: usize) -> usize {
         .floor()
         .max(1.0);
     needed.min(cap) as usize
+}
+
+/// The resampling of [`CubeMap::from_latlong`], one face at a time, for callers that compute
+/// the six faces in parallel: the same values bit for bit.
+pub struct LatLongToCube<'a> {
+    texels: &'a [[f32; 3]],
+    width: usize,
+    height: usize,
+    size: usize,
+    /// Sub-samples per texel side, and per face side.
+    m: usize,
+    ns: usize,
+    /// The sub-sample grid's exact solid angles (the same on every face).
+    weights: Vec<f64>,
+    /// `R_y(-rotation)`: radiance arriving from d is the source's from `back d`.
+    back: [[f64; 3]; 3],
+}
+
+impl<'a> LatLongToCube<'a> {
+    /// The resampling of a `width x height` lat-long map to cube faces of side `size`, turned
+    /// `rotation_deg` about +Y; refused as [`CubeMap::from_latlong`] refuses.
+    pub fn new(
+        texels: &'a [[f32; 3]],
+        width: usize,
+        height: usize,
+        size: usize,
+        rotation_deg: f64,
+    ) -> Result<LatLongToCube<'a>, LightingError> {
+        check_size(size)?;
+        if width == 0 {
+            return Err(LightingError::ZeroSize {
+                what: "lat-long width",
+            });
+        }
+        if height == 0 {
+            return Err(LightingError::ZeroSize {
+                what: "lat-long height",
+            });
+        }
+        let expected = width.checked_mul(height).ok_or(LightingError::TooLarge {
+            what: "lat-long width x height",
+            value: width,
+            max: usize::MAX / height,
+        })?;
+        if texels.len() != expected {
+            return Err(LightingError::LengthMismatch {
+                what: "lat-long texels",
+                expected,
+                got: texels.len(),
+            });
+        }
+        check_finite_rgb("lat-long texels", texels)?;
+        if !rotation_deg.is_finite() {
+            return Err(LightingError::InvalidParameter {
+                what: "rotation angle",
+                expected: "finite",
+                value: rotation_deg,
+            });
+        }
+
+        let m = subsamples_per_texel(size, width, height);
+        let ns = size * m;
+        Ok(LatLongToCube {
+            texels,
+            width,
+            height,
+            size,
+            m,
+            ns,
+            weights: sub_grid_solid_angles(ns),
+            back: rotation_y(-rotation_deg),
+        })
+    }
+
+    /// One face's `size x size` texels, row-major.
+    pub fn face(&self, face: Face) -> Vec<[f32; 3]> {
+        let (m, ns, size) = (self.m, self.ns, self.size);
+        let centre = |k: usize| 2.0 * (k as f64 + 0.5) / ns as f64 - 1.0;
+        let mut acc = vec![[0.0f64; 4]; size * size];
+        for l in 0..ns {
+            let b = centre(l);
+            let row = (l / m) * size;
+            for k in 0..ns {
+                let d = mat_vec(&self.back, normalize(face_ab_to_vector(face, centre(k), b)));
+                let v = latlong::lookup_bilinear(
+                    self.texels,
+                    self.width,
+                    self.height,
+                    [d[0] as f32, d[1] as f32, d[2] as f32],
+                );
+                let w = self.weights[l * ns + k];
+                let a = &mut acc[row + k / m];
+                a[0] += w * v[0] as f64;
+                a[1] += w * v[1] as f64;
+                a[2] += w * v[2] as f64;
+                a[3] += w;
+            }
+        }
+        acc.iter()
+            .map(|a| {
+                [
+                    (a[0] / a[3]) as f32,
+                    (a[1] / a[3]) as f32,
+                    (a[2] / a[3]) as f32,
+                ]
+            })
+            .collect()
+    }
 }
 
 #[cfg(test)]
