@@ -170,8 +170,14 @@ mod tests {
         // Met at 128: try larger clusters; missed: try smaller ones; then stop.
         let met = candidate(128, 10, &[0.05]);
         let missed = candidate(128, 10, &[0.3]);
-        assert_eq!(next_size(None, 5000, std::slice::from_ref(&met), target), Some(256));
-        assert_eq!(next_size(None, 5000, std::slice::from_ref(&missed), target), Some(64));
+        assert_eq!(
+            next_size(None, 5000, std::slice::from_ref(&met), target),
+            Some(256)
+        );
+        assert_eq!(
+            next_size(None, 5000, std::slice::from_ref(&missed), target),
+            Some(64)
+        );
         assert_eq!(next_size(None, 5000, &[missed, met], target), None);
         // A small group: the sizes that make distinct cluster counts only.
         assert_eq!(next_size(None, 100, &[], target), Some(128));
