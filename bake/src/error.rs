@@ -19,6 +19,9 @@ pub enum BakeError {
     /// The scene could not be loaded.
     #[error(transparent)]
     Scene(#[from] SceneError),
+    /// What the user named is not a config, a scene folder or a glTF.
+    #[error(transparent)]
+    Input(#[from] crate::config::input::InputError),
     /// The scene loaded but has nothing to trace.
     #[error("{0}: the scene has no valid triangles")]
     NoTriangles(PathBuf),

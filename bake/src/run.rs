@@ -25,9 +25,10 @@ use crate::vertex::{
 };
 
 /// Loads the config and its scene, with errors that name the file; the loader's warnings
-/// (skipped primitives, ignored glTF features) go to `progress`.
+/// (skipped primitives, ignored glTF features) go to `progress`. `config_path` may name what
+/// `bake` accepts: a config, a scene folder holding `bake.toml`, or a glTF (its defaults).
 pub fn load(config_path: &Path, progress: &dyn Progress) -> Result<(BakeConfig, Scene), BakeError> {
-    let config = BakeConfig::from_file(config_path)?;
+    let config = crate::config::input::resolve(config_path)?.config;
     let scene = load_scene(&config, progress)?;
     Ok((config, scene))
 }

@@ -23,7 +23,8 @@ use prt_formats::MaterialOverride;
     about = "Reference path tracer: the ground truth a bake is checked against"
 )]
 struct Args {
-    /// The bake config (TOML) naming the scene.
+    /// The bake config (TOML) naming the scene, a scene folder holding `bake.toml`, or a glTF
+    /// (with `bake`'s defaults for it).
     config: PathBuf,
     /// Samples per pixel (default: the config's spp).
     #[arg(long)]

@@ -217,4 +217,18 @@ fn reference_refuses_bad_input() {
         &[cfg, "--env", s(&sky), "--env-intensity", "-1"],
         &["intensity", "-1"],
     );
+    // What `bake` accepts besides a config: a folder without bake.toml is refused, naming it;
+    // a scene folder renders.
+    run(&[s(dir.path())], &["bake.toml"]);
+    let folder = scenes().join("cornell");
+    let o = std::process::Command::new(REFERENCE)
+        .args([s(&folder)])
+        .args(small)
+        .output()
+        .expect("spawn reference");
+    assert!(
+        o.status.success() && exr.exists(),
+        "reference on a scene folder: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
 }
