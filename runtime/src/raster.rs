@@ -235,18 +235,18 @@ impl Rasterizer {
         out.fragments.resize(pixels, Fragment::EMPTY);
         self.bands.resize_with(bands, BandScratch::default);
         let chunks = &self.chunks;
-        let avx2 = avx2_available();
         out.fragments
             .par_chunks_mut(width as usize * BAND_ROWS as usize)
             .zip(self.bands.par_iter_mut())
             .enumerate()
             .for_each(|(band, (frags, scratch))| {
-                if avx2 {
-                    // SAFETY: AVX2 is present (checked above).
-                    unsafe { raster_band_avx2(&tables, chunks, band, scratch, frags) }
-                } else {
-                    raster_band(&tables, chunks, band, scratch, frags)
+                #[cfg(target_arch = "x86_64")]
+                if std::arch::is_x86_feature_detected!("avx2") {
+                    // SAFETY: the CPU supports AVX2 (checked just above).
+                    unsafe { raster_band_avx2(&tables, chunks, band, scratch, frags) };
+                    return;
                 }
+                raster_band(&tables, chunks, band, scratch, frags)
             });
         out.width = width;
         out.height = height;
@@ -630,33 +630,11 @@ fn row_span(
     Some((lo as usize, hi as usize))
 }
 
-fn avx2_available() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
 /// [`raster_band`] compiled for AVX2: its branch-free pixel loop runs four f64 lanes instead
 /// of two. The same operations in the same order (Rust never fuses a multiply and an add), so
 /// the same fragments bit for bit.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn raster_band_avx2(
-    t: &Tables,
-    chunks: &[ChunkBins],
-    band: usize,
-    z: &mut BandScratch,
-    out: &mut [Fragment],
-) {
-    raster_band(t, chunks, band, z, out)
-}
-
-#[cfg(not(target_arch = "x86_64"))]
 unsafe fn raster_band_avx2(
     t: &Tables,
     chunks: &[ChunkBins],

@@ -85,7 +85,6 @@ pub(super) fn contract_light(
         rest = tail;
     }
     if row > 0 {
-        let simd = avx2_available();
         slices.into_par_iter().enumerate().for_each(|(k, out)| {
             let [a, r, b] = layout.ranks[k];
             let light = &factors[layout.factor_at[k]..][..bins * a];
@@ -98,12 +97,13 @@ pub(super) fn contract_light(
                 elements,
                 channels,
             };
-            if simd {
-                // SAFETY: AVX2 is present (checked above).
-                unsafe { cluster_light_avx2(dims, c, light, core, element_t, scale, out) }
-            } else {
-                cluster_light(dims, c, light, core, element_t, scale, out)
+            #[cfg(target_arch = "x86_64")]
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU supports AVX2 (checked just above).
+                unsafe { cluster_light_avx2(dims, c, light, core, element_t, scale, out) };
+                return;
             }
+            cluster_light(dims, c, light, core, element_t, scale, out)
         });
     }
     ClusterLight {
@@ -123,34 +123,10 @@ struct ClusterDims {
     channels: usize,
 }
 
-fn avx2_available() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
 /// [`cluster_light`] compiled for AVX2: the same operations in the same order, so the same
 /// bits.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn cluster_light_avx2(
-    d: ClusterDims,
-    c: &[[f32; 3]],
-    light: &[f32],
-    core: &[f32],
-    element_t: &[f32],
-    scale: f32,
-    out: &mut [f32],
-) {
-    cluster_light(d, c, light, core, element_t, scale, out)
-}
-
-#[cfg(not(target_arch = "x86_64"))]
 unsafe fn cluster_light_avx2(
     d: ClusterDims,
     c: &[[f32; 3]],
