@@ -725,6 +725,31 @@ family = "diffuse"
 """)
 
 
+# The gallery's and the atrium's light and editable materials (their bake.toml's tail).
+STUDIO_KNOT_BUNNY = """\
+# Scaled so the lit floor comes out near 0.6-0.8 (the map's irradiance on an upward plane is
+# about 14 W/m^2 at intensity 1).
+[environment]
+map = "../envmaps/studio.exr"
+intensity = 0.25
+
+# Glossy: glTF says a dark blue dielectric with roughness 0.387 (ggx, alpha 0.15, Ks 0.04);
+# a clearly visible lobe needs a larger Ks (Kd + Ks stays <= 1).
+[materials.knot]
+editable = true
+family = "ggx"
+kd = [0.05, 0.12, 0.35]
+ks = 0.5
+alpha = 0.15
+
+# Diffuse: fully rough in the glTF (-> diffuse), Kd from its base colour.
+[materials.bunny]
+editable = true
+family = "diffuse"
+kd = [0.8, 0.4, 0.18]
+"""
+
+
 def gallery(bunny_js):
     """A glossy torus knot and a diffuse bunny on a gridded floor, lit only by a lat-long
     environment map (scenes/envmaps/studio.exr): the scene for the per-vertex mode, so every
@@ -786,33 +811,13 @@ spp = 64
 reflections = 2
 seed = 0
 
-# Scaled so the lit floor comes out near 0.6-0.8 (the map's irradiance on an upward plane is
-# about 14 W/m^2 at intensity 1).
-[environment]
-map = "../envmaps/studio.exr"
-intensity = 0.25
-
-# Glossy: glTF says a dark blue dielectric with roughness 0.387 (ggx, alpha 0.15, Ks 0.04);
-# a clearly visible lobe needs a larger Ks (Kd + Ks stays <= 1).
-[materials.knot]
-editable = true
-family = "ggx"
-kd = [0.05, 0.12, 0.35]
-ks = 0.5
-alpha = 0.15
-
-# Diffuse: fully rough in the glTF (-> diffuse), Kd from its base colour.
-[materials.bunny]
-editable = true
-family = "diffuse"
-kd = [0.8, 0.4, 0.18]
-""")
+""" + STUDIO_KNOT_BUNNY)
 
 
 def atrium(bunny_js):
     """The gallery at the size of the thesis' largest per-vertex scene (131.1K vertices): a
     larger floor and a back wall, a bigger glossy knot, the diffuse bunny and a second,
-    non-editable bunny (a stone statue), 130 300 vertices. Every group stays below 36K
+    non-editable bunny (a stone statue), 130 380 vertices. Every group stays below 36K
     vertices, because a group's dense tensors are held in memory until it is compressed."""
     folder = os.path.join(HERE, "atrium")
     os.makedirs(folder, exist_ok=True)
@@ -862,15 +867,16 @@ def atrium(bunny_js):
     g.camera("camera", (0.0, 0.85, 2.1), (0.0, 0.25, -0.2), 40.0, aspect=1.0)
     g.write_gltf(folder, "atrium")
     write_text(os.path.join(folder, "bake.toml"), """\
-# Atrium: the gallery at the size of the thesis' largest per-vertex scene (130 300 vertices;
+# Atrium: the gallery at the size of the thesis' largest per-vertex scene (130 380 vertices;
 # scenes/generate.py): a glossy torus knot and a diffuse bunny (editable), a stone bunny, a
 # floor and a back wall, lit only by the studio environment map.
 #
 # For the per-vertex report's larger scene (docs/report-vertex.md). Compressed (the default) the
-# file is a few hundred MB; the bake holds one group's dense tensors at a time (the floor's,
-# the largest), so it needs about as much memory as the gallery's although it has nearly three
-# times the vertices; the allocation report says how much before tracing. N1 = 32 directions
-# per vertex (half the gallery's) keeps the bake near a quarter of an hour on two cores.
+# file is about 430 MB; the bake holds one group's dense tensors at a time (the floor's, the
+# largest), so its peak memory (about 11 GB) is not far above the gallery's although it has
+# nearly three times the vertices; the allocation report says how much before tracing.
+# N1 = 32 directions per vertex (half the gallery's) keeps the bake near 7 minutes on two
+# idle cores.
 scene = "atrium.gltf"
 mode = "vertex"
 width = 160
@@ -879,22 +885,7 @@ spp = 32
 reflections = 2
 seed = 0
 
-[environment]
-map = "../envmaps/studio.exr"
-intensity = 0.25
-
-[materials.knot]
-editable = true
-family = "ggx"
-kd = [0.05, 0.12, 0.35]
-ks = 0.5
-alpha = 0.15
-
-[materials.bunny]
-editable = true
-family = "diffuse"
-kd = [0.8, 0.4, 0.18]
-""")
+""" + STUDIO_KNOT_BUNNY)
 
 
 def vitrine(bunny_js):
