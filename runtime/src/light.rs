@@ -53,28 +53,7 @@ impl LightCoefficients {
         rotation_deg: f64,
         widths_deg: &[f64],
     ) -> Result<LightCoefficients, LightingError> {
-        if !rotation_deg.is_finite() {
-            return Err(LightingError::InvalidParameter {
-                what: "environment rotation (degrees)",
-                expected: "a finite number",
-                value: rotation_deg,
-            });
-        }
-        // The six faces resampled in parallel (a light change's largest piece of work after
-        // the prefilter), the same values bit for bit as `CubeMap::from_latlong`.
-        let resample = LatLongToCube::new(
-            &map.texels,
-            map.width,
-            map.height,
-            DIRECT_SIZE,
-            rotation_deg,
-        )?;
-        let faces: Vec<Vec<[f32; 3]>> = Face::ALL
-            .par_iter()
-            .map(|&face| resample.face(face))
-            .collect();
-        let cube = CubeMap::new(DIRECT_SIZE, faces.concat())?;
-        Self::from_cube(cube, widths_deg)
+        Self::from_cube(environment_cube(map, rotation_deg)?, widths_deg)
     }
 
     /// The coefficients of an environment already resampled to a 6 x [`DIRECT_SIZE`]^2 cube.
@@ -98,53 +77,7 @@ impl LightCoefficients {
         while two_bounce.size() > TWO_BOUNCE_SIZE {
             two_bounce = two_bounce.downsample()?;
         }
-        // The prefilter dominates a light change: its faces run in parallel (each face is
-        // computed on its own, so the result does not depend on the thread count).
-        let filters = widths_deg
-            .iter()
-            .map(|&w| {
-                let sigma = w.to_radians();
-                if sigma == 0.0 {
-                    return Ok(None);
-                }
-                Ok(Some(prefilter::Prefilter::new(
-                    &cube,
-                    sigma,
-                    prefilter::output_size(sigma)?,
-                )?))
-            })
-            .collect::<Result<Vec<_>, LightingError>>()?;
-        let jobs: Vec<(usize, Face)> = filters
-            .iter()
-            .enumerate()
-            .filter(|(_, f)| f.is_some())
-            .flat_map(|(i, _)| Face::ALL.into_iter().map(move |face| (i, face)))
-            .collect();
-        let faces: Vec<Vec<[f32; 3]>> = jobs
-            .par_iter()
-            .map(|&(i, face)| filters[i].as_ref().map_or(Vec::new(), |f| f.face(face)))
-            .collect();
-        let mut faces = faces.into_iter();
-        let mut prefiltered = Vec::with_capacity(widths_deg.len());
-        for (&w, filter) in widths_deg.iter().zip(&filters) {
-            let sigma = w.to_radians();
-            let filtered = match filter {
-                Some(f) => {
-                    let texels: Vec<[f32; 3]> = faces.by_ref().take(6).flatten().collect();
-                    CubeMap::new(f.size(), texels)?
-                }
-                None => cube.clone(),
-            };
-            let k = prefilter::kernel_integral(sigma)?;
-            // Normalized: a constant environment stays that constant at every width.
-            let scale = if sigma == 0.0 { 1.0 } else { 1.0 / k };
-            let texels = filtered
-                .texels()
-                .iter()
-                .map(|t| t.map(|c| (c as f64 * scale) as f32))
-                .collect();
-            prefiltered.push(CubeMap::new(filtered.size(), texels)?);
-        }
+        let prefiltered = prefiltered(&cube, widths_deg)?;
         Ok(LightCoefficients {
             cube,
             haar,
@@ -154,6 +87,86 @@ impl LightCoefficients {
             prefiltered,
         })
     }
+}
+
+/// The environment `map` turned `rotation_deg` degrees about +Y as the 6 x [`DIRECT_SIZE`]^2
+/// cube map direct light is stored against: `CubeMap::from_latlong`'s values bit for bit,
+/// its six faces resampled in parallel (a light change's largest piece of work after the
+/// prefilter).
+pub fn environment_cube(map: &LatLongMap, rotation_deg: f64) -> Result<CubeMap, LightingError> {
+    if !rotation_deg.is_finite() {
+        return Err(LightingError::InvalidParameter {
+            what: "environment rotation (degrees)",
+            expected: "a finite number",
+            value: rotation_deg,
+        });
+    }
+    let resample = LatLongToCube::new(
+        &map.texels,
+        map.width,
+        map.height,
+        DIRECT_SIZE,
+        rotation_deg,
+    )?;
+    let faces: Vec<Vec<[f32; 3]>> = Face::ALL
+        .par_iter()
+        .map(|&face| resample.face(face))
+        .collect();
+    CubeMap::new(DIRECT_SIZE, faces.concat())
+}
+
+/// [`LightCoefficients::prefiltered`] of `cube` for `widths_deg` (width 0: `cube` itself):
+/// every (width, face) computed on its own and in parallel, so the result does not depend on
+/// the thread count.
+pub fn prefiltered(cube: &CubeMap, widths_deg: &[f64]) -> Result<Vec<CubeMap>, LightingError> {
+    // The prefilter dominates a light change: its faces run in parallel (each face is
+    // computed on its own, so the result does not depend on the thread count).
+    let filters = widths_deg
+        .iter()
+        .map(|&w| {
+            let sigma = w.to_radians();
+            if sigma == 0.0 {
+                return Ok(None);
+            }
+            Ok(Some(prefilter::Prefilter::new(
+                cube,
+                sigma,
+                prefilter::output_size(sigma)?,
+            )?))
+        })
+        .collect::<Result<Vec<_>, LightingError>>()?;
+    let jobs: Vec<(usize, Face)> = filters
+        .iter()
+        .enumerate()
+        .filter(|(_, f)| f.is_some())
+        .flat_map(|(i, _)| Face::ALL.into_iter().map(move |face| (i, face)))
+        .collect();
+    let faces: Vec<Vec<[f32; 3]>> = jobs
+        .par_iter()
+        .map(|&(i, face)| filters[i].as_ref().map_or(Vec::new(), |f| f.face(face)))
+        .collect();
+    let mut faces = faces.into_iter();
+    let mut out = Vec::with_capacity(widths_deg.len());
+    for (&w, filter) in widths_deg.iter().zip(&filters) {
+        let sigma = w.to_radians();
+        let filtered = match filter {
+            Some(f) => {
+                let texels: Vec<[f32; 3]> = faces.by_ref().take(6).flatten().collect();
+                CubeMap::new(f.size(), texels)?
+            }
+            None => cube.clone(),
+        };
+        let k = prefilter::kernel_integral(sigma)?;
+        // Normalized: a constant environment stays that constant at every width.
+        let scale = if sigma == 0.0 { 1.0 } else { 1.0 / k };
+        let texels = filtered
+            .texels()
+            .iter()
+            .map(|t| t.map(|c| (c as f64 * scale) as f32))
+            .collect();
+        out.push(CubeMap::new(filtered.size(), texels)?);
+    }
+    Ok(out)
 }
 
 #[cfg(test)]

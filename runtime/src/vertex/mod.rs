@@ -40,10 +40,9 @@ use prt_formats::pixel::MaterialParams;
 use prt_formats::vertex::VertexBakeMeta;
 use prt_formats::view::CameraFrame;
 use prt_formats::BakeFile;
-use rayon::prelude::*;
 
 use crate::error::RuntimeError;
-use crate::light::LightCoefficients;
+use crate::light::{self, LightCoefficients};
 use crate::materials::Materials;
 use crate::raster::{eye_verdict, Rasterizer, ViewRays, VisibilityBuffer};
 use crate::Kernel;
@@ -541,8 +540,8 @@ fn check_rotation(rotation_deg: f32) -> Result<(), RuntimeError> {
 }
 
 /// The light coefficients of `map` turned `rotation_deg`, with the prefiltered cubes of
-/// `widths` (nonzero, degrees) of the map **unturned**, computed in parallel (each is
-/// `crate::light`'s own) when `unturned` does not hold them yet, and kept there.
+/// `widths` (nonzero, degrees) of the map **unturned** (`crate::light::prefiltered`), computed
+/// when `unturned` does not hold them yet, and kept there.
 ///
 /// Why unturned: the prefilter is a convolution with a kernel that depends only on the angle
 /// between directions, so it commutes with rotations: the prefiltered turned map at `d` is the
@@ -562,12 +561,11 @@ fn light_coefficients(
     let prefiltered = match unturned {
         Some(cubes) => cubes.clone(),
         None => {
-            let cube = if rotation_deg == 0.0 {
-                base.cube.clone()
+            let cubes = if rotation_deg == 0.0 {
+                light::prefiltered(&base.cube, widths)?
             } else {
-                LightCoefficients::from_latlong(map, 0.0, &[])?.cube
+                light::prefiltered(&light::environment_cube(map, 0.0)?, widths)?
             };
-            let cubes = prefiltered_cubes(&cube, widths)?;
             *unturned = Some(cubes.clone());
             cubes
         }
@@ -575,25 +573,6 @@ fn light_coefficients(
     base.widths_deg = widths.to_vec();
     base.prefiltered = prefiltered;
     Ok(base)
-}
-
-/// The prefiltered cubes of `cube` for `widths` (nonzero, degrees), in parallel.
-fn prefiltered_cubes(cube: &CubeMap, widths: &[f64]) -> Result<Vec<CubeMap>, LightingError> {
-    widths
-        .par_iter()
-        .map(|&w| {
-            let one = LightCoefficients::from_cube(cube.clone(), &[w])?;
-            let got = one.prefiltered.len();
-            one.prefiltered
-                .into_iter()
-                .next()
-                .ok_or(LightingError::LengthMismatch {
-                    what: "prefiltered cubes for one width",
-                    expected: 1,
-                    got,
-                })
-        })
-        .collect()
 }
 
 #[cfg(test)]
@@ -627,10 +606,8 @@ mod tests {
         let map = asymmetric_map();
         let widths = [4.0, 12.0, 30.0];
         let rotation = 70.0f32;
-        let turned = LightCoefficients::from_latlong(&map, f64::from(rotation), &[])
-            .expect("turned cube")
-            .cube;
-        let direct = prefiltered_cubes(&turned, &widths).expect("prefiltered turned map");
+        let turned = light::environment_cube(&map, f64::from(rotation)).expect("turned cube");
+        let direct = light::prefiltered(&turned, &widths).expect("prefiltered turned map");
         let mut unturned = None;
         let reused = light_coefficients(&map, rotation, &widths, &mut unturned)
             .expect("coefficients")
