@@ -188,4 +188,34 @@ fn a_vertex_bake_relights_any_view_light_and_material_and_refuses_bad_input() {
         &["--width"],
         &png,
     );
+    fails(
+        RELIGHT,
+        &[s(&pixel_file), "--repeat", "2", "--turn", "5", "--out", p],
+        &["--turn"],
+        &png,
+    );
+    fails(
+        RELIGHT,
+        &[b, "--repeat", "2", "--turn", "nan", "--out", p],
+        &["--turn", "finite"],
+        &png,
+    );
+    let kept = dir.path().join("kept.prtbake");
+    fails(
+        BAKE,
+        &[
+            s(&scenes().join("cornell")),
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "--spp",
+            "1",
+            "--keep-checkpoint",
+            "--out",
+            s(&kept),
+        ],
+        &["--keep-checkpoint", "per-vertex"],
+        &kept,
+    );
 }
