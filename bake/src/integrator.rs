@@ -11,16 +11,18 @@
 //! very same paths from the same random streams: relighting with coefficients c equals the
 //! reference render with the projected BRDFs, to float rounding (docs/pixel.md, "Exactness").
 //!
-//! Random numbers are drawn in a fixed order per vertex whatever happens (2 for the camera
-//! jitter; per vertex 3 for the area light, 2 for the environment, 3 for the continuation), so
-//! the streams of two runs stay aligned.
+//! Numbers are drawn from a [`PathSampler`] in a fixed order whatever happens (a 2D draw for
+//! the camera jitter; per vertex a 1D and a 2D draw for the area light, a 2D draw for the
+//! environment, a 1D and a 2D draw for the continuation), so draw d of every sample of a pixel
+//! estimates the same dimension of the path integral (which is what lets the sampler stratify
+//! it) and the draws of two runs stay aligned.
 
 use glam::{Vec2, Vec3};
 
 use crate::accel::{Accel, Hit};
 use crate::brdf::BrdfSample;
 use crate::lights::{orthonormal_basis, LightSet};
-use crate::sampling::Rng;
+use crate::sampling::{Draw, PathSampler};
 use crate::scene::Scene;
 
 /// Most slots a material may have at one vertex.
@@ -82,7 +84,7 @@ pub trait MaterialModel: Sync {
     /// vertex index along the path (0 = the point the camera sees).
     fn eval(&self, surface: &Surface, depth: usize, wo: Vec3, wi: Vec3, out: &mut Slots);
     /// Samples a continuation direction. Must draw exactly 3 numbers from `rng`.
-    fn sample(&self, surface: &Surface, wo: Vec3, rng: &mut Rng) -> Option<BrdfSample>;
+    fn sample<D: Draw>(&self, surface: &Surface, wo: Vec3, rng: &mut D) -> Option<BrdfSample>;
     /// The density of `sample`.
     fn pdf(&self, surface: &Surface, wo: Vec3, wi: Vec3) -> f32;
 }
@@ -157,6 +159,12 @@ impl<'a> Integrator<'a> {
         self.eps
     }
 
+    /// The draws one camera sample makes from its [`PathSampler`]: the film jitter, and five
+    /// per reflection (see the module comment).
+    pub fn draws_per_sample(&self) -> usize {
+        1 + 5 * self.reflections
+    }
+
     /// Primary ray direction through film position (x, y) in pixels (y down).
     #[inline]
     pub fn camera_ray(&self, x: f32, y: f32) -> (Vec3, Vec3) {
@@ -207,14 +215,27 @@ impl<'a> Integrator<'a> {
     /// Emitted radiance of a surface point (zero for non-emissive materials).
     #[inline]
     fn emission(&self, s: &Surface) -> Vec3 {
-        let m = &self.scene.materials[s.material as usize];
+        self.emission_at(s.triangle, s.bary)
+    }
+
+    /// Emitted radiance at barycentrics `bary` of `triangle`. A light sample needs only this,
+    /// not a whole [`Surface`] (normals, frame): building one per shadow ray cost about 5 % of
+    /// a reference render.
+    #[inline]
+    fn emission_at(&self, triangle: u32, bary: Vec2) -> Vec3 {
+        let scene = self.scene;
+        let m = &scene.materials[scene.triangle_material[triangle as usize] as usize];
         if !m.is_emissive() {
             return Vec3::ZERO;
         }
         let tex = m
             .emissive_texture
-            .and_then(|t| self.scene.textures.get(t))
-            .map_or(Vec3::ONE, |t| t.sample(s.uv));
+            .and_then(|t| scene.textures.get(t))
+            .map_or(Vec3::ONE, |t| {
+                let tri = scene.triangles[triangle as usize];
+                let [ua, ub, uc] = tri.map(|i| scene.uvs[i as usize]);
+                t.sample(ua * (1.0 - bary.x - bary.y) + ub * bary.x + uc * bary.y)
+            });
         m.emission * tex
     }
 
@@ -245,7 +266,7 @@ impl<'a> Integrator<'a> {
         sink: &mut S,
         px: u32,
         py: u32,
-        rng: &mut Rng,
+        rng: &mut PathSampler<'_>,
     ) -> u32 {
         let jitter = rng.next_vec2();
         let (origin, dir) = self.camera_ray(px as f32 + jitter.x, py as f32 + jitter.y);
@@ -283,13 +304,7 @@ impl<'a> Integrator<'a> {
             {
                 let wi = surf.to_local(ls.wi);
                 if wi.z > 0.0 && ls.wi.dot(surf.ng) > 0.0 {
-                    let light_hit = Hit {
-                        t: ls.distance,
-                        triangle: tri,
-                        bary,
-                    };
-                    let light_surf = self.surface(&light_hit, ls.wi);
-                    let le = self.emission(&light_surf);
+                    let le = self.emission_at(tri, bary);
                     rays += 1;
                     if le != Vec3::ZERO
                         && !self.accel.occluded(

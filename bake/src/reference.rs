@@ -10,7 +10,7 @@ use rayon::prelude::*;
 use crate::brdf::{BrdfParams, BrdfSample};
 use crate::integrator::{Integrator, MaterialModel, PathSink, Slots, Surface};
 use crate::progress::{Progress, Stage};
-use crate::sampling::Rng;
+use crate::sampling::{Draw, PixelSampler};
 use crate::scene::Scene;
 
 /// Every material with its true BRDF (base-colour texture applied to Kd): one slot per vertex,
@@ -55,7 +55,7 @@ impl MaterialModel for TrueBrdfModel<'_> {
     }
 
     #[inline]
-    fn sample(&self, s: &Surface, wo: Vec3, rng: &mut Rng) -> Option<BrdfSample> {
+    fn sample<D: Draw>(&self, s: &Surface, wo: Vec3, rng: &mut D) -> Option<BrdfSample> {
         let u_lobe = rng.next_f32();
         let u = rng.next_vec2();
         self.brdf_at(s).sample(wo, u, u_lobe)
@@ -171,11 +171,14 @@ pub fn render<M: MaterialModel>(
                 rays: 0,
                 sums: vec![(Vec3::ZERO, 0); nmat + 1],
             };
+            // One per row: it keeps the shuffle tables' memory between pixels.
+            let mut sampler = PixelSampler::new(spp, integrator.draws_per_sample());
             for x in 0..w {
                 let pixel = y as u64 * w as u64 + x as u64;
                 let mut acc = Vec3::ZERO;
+                sampler.start(seed, pixel);
                 for s in 0..spp {
-                    let mut rng = Rng::for_sample(seed, pixel, s as u64);
+                    let mut rng = sampler.sample(s);
                     let mut sink = ContractSink::new(coefficients);
                     out.rays += integrator.trace_sample(model, &mut sink, x, y, &mut rng) as u64;
                     acc += sink.value;

@@ -307,7 +307,7 @@ pub struct CameraSample {
 
 /// Replays the camera samples of a `width` x `height` render or bake with `spp` samples per
 /// pixel and streams keyed by `seed`: sample s of pixel p uses the stream
-/// `Rng::for_sample(seed, p, s)` and its first two numbers are the film jitter (the
+/// sample s of a `PixelSampler` started at (seed, p), and its first draw is the film jitter (the
 /// integrator's fixed drawing order), so the primary ray of every sample is known exactly and
 /// a closed form can be evaluated for it. With `trace`, each sample is also traced with the
 /// true BRDFs and `reflections` reflections, exactly as [`crate::reference::render`] does
@@ -322,7 +322,7 @@ pub fn camera_samples(
 ) -> Vec<CameraSample> {
     use crate::integrator::Integrator;
     use crate::reference::{unit_coefficients, ContractSink, TrueBrdfModel};
-    use crate::sampling::Rng;
+    use crate::sampling::PixelSampler;
     use rayon::prelude::*;
 
     let accel = crate::accel::Accel::build(scene);
@@ -334,10 +334,13 @@ pub fn camera_samples(
         .into_par_iter()
         .flat_map_iter(|y| {
             let mut row = Vec::with_capacity((width * spp) as usize);
+            // One per row: it keeps the shuffle tables' memory between pixels.
+            let mut sampler = PixelSampler::new(spp, integ.draws_per_sample());
             for x in 0..width {
                 let pixel = y * width + x;
+                sampler.start(seed, pixel as u64);
                 for s in 0..spp {
-                    let mut rng = Rng::for_sample(seed, pixel as u64, s as u64);
+                    let mut rng = sampler.sample(s);
                     let jitter = rng.clone().next_vec2();
                     let (origin, dir) = integ.camera_ray(x as f32 + jitter.x, y as f32 + jitter.y);
                     let hit = accel

@@ -93,7 +93,7 @@ class Render:
     def __init__(self, args):
         self.args = args
         self.case = dict(CASE, width=args.width, height=args.height,
-                         reflections=args.reflections)
+                         reflections=args.reflections, sampler=args.mitsuba_sampler)
         self.gltf = os.path.join(ROOT, CASE["scene"])
         self.work = os.path.join(args.work, "render")
         os.makedirs(self.work, exist_ok=True)
@@ -102,9 +102,10 @@ class Render:
         self.scene, _ = mitsuba_check.mitsuba_scene(self.case, self.gltf, None, self.work)
         self.load_s = time.perf_counter() - t0
 
-    def mitsuba(self, spp, seed):
+    def mitsuba(self, spp, seed, scene=None):
         t0 = time.perf_counter()
-        img = np.array(mi.render(self.scene, spp=spp, seed=seed), dtype=np.float64)[..., :3]
+        img = np.array(mi.render(scene or self.scene, spp=spp, seed=seed),
+                       dtype=np.float64)[..., :3]
         return img, time.perf_counter() - t0
 
     def ground_truth(self):
@@ -114,9 +115,11 @@ class Render:
         with open(self.gltf, "rb") as f:
             scene_hash = hashlib.sha256(f.read()).hexdigest()
         chunk = max(1, min(a.gt_spp, (1 << 24) // (a.width * a.height)))
+        chunk = 1 << (chunk.bit_length() - 1)  # a power of two: ldsampler's sample counts
         key = json.dumps(dict(scene=scene_hash, materials=c["materials"], edits=c["edits"],
                               width=a.width, height=a.height, reflections=a.reflections,
                               spp=a.gt_spp, chunk=chunk, variant=VARIANT,
+                              sampler=a.gt_sampler,
                               mitsuba=mi.__version__, drjit=dr.__version__), sort_keys=True)
         digest = hashlib.sha256(key.encode()).hexdigest()[:16]
         folder = os.path.join(a.work, "gt")
@@ -126,13 +129,16 @@ class Render:
             return np.load(path), path, None
         os.makedirs(folder, exist_ok=True)
         passes = (a.gt_spp + chunk - 1) // chunk
-        log("ground truth: %d spp in %d Mitsuba renders (cached afterwards)" % (a.gt_spp, passes))
+        log("ground truth: %d spp in %d Mitsuba renders, sampler %s (cached afterwards)"
+            % (a.gt_spp, passes, a.gt_sampler))
+        gt_scene, _ = mitsuba_check.mitsuba_scene(dict(self.case, sampler=a.gt_sampler),
+                                                  self.gltf, None, self.work)
         t0 = time.perf_counter()
         acc = np.zeros((a.height, a.width, 3))
         total = 0
         for k in range(passes):
             spp = min(chunk, a.gt_spp - total)
-            img, _ = self.mitsuba(spp, 1_000_000 + k)
+            img, _ = self.mitsuba(spp, 1_000_000 + k, gt_scene)
             acc += img * spp
             total += spp
         gt = acc / total
@@ -165,18 +171,18 @@ class Render:
             out += ["--set", "%s=%s" % (key, text)]
         return out
 
-    def reference(self, seed):
+    def reference(self, seed, bin_dir):
         cfg = self.config(seed)
         exr = cfg[:-5] + "-reference.exr"
-        j, wall = run_json([os.path.join(self.args.bin, "reference"), cfg, "--json",
+        j, wall = run_json([os.path.join(bin_dir, "reference"), cfg, "--json",
                             "--out", exr] + self.edit_flags())
         return mitsuba_check.read_exr(exr), j["seconds"], wall
 
-    def bake(self, seed):
+    def bake(self, seed, bin_dir):
         cfg = self.config(seed)
-        bake, bake_wall = run_json([os.path.join(self.args.bin, "bake"), cfg, "--json"])
+        bake, bake_wall = run_json([os.path.join(bin_dir, "bake"), cfg, "--json"])
         exr = cfg[:-5] + "-relit.exr"
-        relight, relight_wall = run_json([os.path.join(self.args.bin, "relight"),
+        relight, relight_wall = run_json([os.path.join(bin_dir, "relight"),
                                           cfg[:-5] + ".prtbake", "--out", exr, "--json"]
                                          + self.edit_flags())
         os.remove(cfg[:-5] + ".prtbake")  # tens of MB per round at 256x256
@@ -186,11 +192,18 @@ class Render:
 
 def render_comparison(args, report):
     r = Render(args)
+
+    def bin_of(tool):
+        return args.bin_before if tool.endswith("-before") else args.bin
+
     gt, gt_path, gt_seconds = r.ground_truth()
     # Dr.Jit compiles the renderer's kernels on the first render of a process (and caches
     # them); a 1-spp render takes that cost out of the timed rounds.
     r.mitsuba(1, 0)
     tools = ["mitsuba", "reference", "bake"]
+    if args.bin_before:
+        # The binaries of an earlier commit, in the same interleaved rounds.
+        tools += ["reference-before", "bake-before"]
     rows = {t: dict(seconds=[], wall=[], err=[]) for t in tools}
     bake_parts = []
     for rnd in range(args.rounds):
@@ -200,13 +213,14 @@ def render_comparison(args, report):
             if tool == "mitsuba":
                 img, s = r.mitsuba(args.spp, seed)
                 wall = s
-            elif tool == "reference":
-                img, s, wall = r.reference(seed)
+            elif tool.startswith("reference"):
+                img, s, wall = r.reference(seed, bin_of(tool))
             else:
-                img, s, wall, summary = r.bake(seed)
-                bake_parts.append(dict(basis_s=summary.get("basis_seconds"),
-                                       trace_s=summary["timings"]["trace_seconds"],
-                                       seconds=summary["seconds"]))
+                img, s, wall, summary = r.bake(seed, bin_of(tool))
+                if tool == "bake":
+                    bake_parts.append(dict(basis_s=summary.get("basis_seconds"),
+                                           trace_s=summary["timings"]["trace_seconds"],
+                                           seconds=summary["seconds"]))
             e = rel_l2(img, gt)
             rows[tool]["seconds"].append(s)
             rows[tool]["wall"].append(wall)
@@ -217,14 +231,16 @@ def render_comparison(args, report):
     print("\n(a) Rendering: scenes/cornell (6 246 triangles, area light; bunny GGX and tall box "
           "Lambert, both editable, relit), %dx%d, %d spp, %d reflections (Mitsuba max_depth %d)"
           % (a.width, a.height, a.spp, a.reflections, a.reflections + 1))
-    print("    ground truth: Mitsuba %s, %d spp (%s%s)" % (
-        VARIANT, a.gt_spp, os.path.relpath(gt_path, ROOT),
+    print("    ground truth: Mitsuba %s, %d spp, sampler %s (%s%s)" % (
+        VARIANT, a.gt_spp, a.gt_sampler, os.path.relpath(gt_path, ROOT),
         "" if gt_seconds is None else ", %.0f s" % gt_seconds))
-    print("    %d interleaved rounds (time: median, error: RMS); Mitsuba %s, drjit %s, %d "
-          "threads; ours %s; Mitsuba scene load %.2f s (not timed)" % (
-              a.rounds, mi.__version__, dr.__version__, dr.thread_count(), a.bin, r.load_s))
+    print("    %d interleaved rounds (time: median, error: RMS); Mitsuba %s (sampler %s), drjit "
+          "%s, %d threads; ours %s%s; Mitsuba scene load %.2f s (not timed)" % (
+              a.rounds, mi.__version__, a.mitsuba_sampler, dr.__version__, dr.thread_count(),
+              a.bin, "" if not a.bin_before else ", before " + a.bin_before, r.load_s))
     names = {"mitsuba": "Mitsuba 3 path", "reference": "ours: reference",
-             "bake": "ours: bake + relight"}
+             "bake": "ours: bake + relight", "reference-before": "before: reference",
+             "bake-before": "before: bake + relight"}
     print("  %-22s %9s %9s %10s %15s %12s %11s" % ("renderer", "time s", "wall s", "rel. L2 %",
                                                    "(min-max) %", "efficiency", "vs Mitsuba"))
     # Time: the median over rounds (robust to other load on the machine). Error: the root mean
@@ -429,8 +445,16 @@ def main():
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--bin", default=os.path.join(ROOT, "target", "release"),
                     help="folder of the bake, relight, reference and bench binaries")
-    ap.add_argument("--bin-before", help="folder of another `bench` binary (e.g. built from an "
-                    "earlier commit) timed in the same interleaved rounds as ours and Embree")
+    ap.add_argument("--bin-before", help="folder of the binaries of an earlier commit (bench; "
+                    "for the render half also bake, relight, reference), timed in the same "
+                    "interleaved rounds as ours, Mitsuba and Embree")
+    ap.add_argument("--gt-sampler", default="ldsampler",
+                    help="Mitsuba's sampler for the ground truth (default ldsampler: its error "
+                         "falls faster than independent sampling's, which matters once the "
+                         "compared renders stratify their samples too)")
+    ap.add_argument("--mitsuba-sampler", default="independent",
+                    help="Mitsuba's sampler plugin (independent, stratified, multijitter, "
+                         "ldsampler, ...; some need a square or power-of-two spp)")
     ap.add_argument("--work", default=os.path.join(ROOT, "target", "compare"),
                     help="scratch folder: renders, the cached ground truth, ray dumps")
     ap.add_argument("--quick", action="store_true",

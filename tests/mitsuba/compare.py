@@ -327,7 +327,8 @@ def mitsuba_scene(case, gltf_path, env, work):
             # The box filter: each sample counts in its own pixel only, as in the baker.
             "film": {"type": "hdrfilm", "width": case["width"], "height": case["height"],
                      "rfilter": {"type": "box"}, "pixel_format": "rgb"},
-            "sampler": {"type": "independent"},
+            # bench/compare may ask for another of Mitsuba's samplers (`--mitsuba-sampler`).
+            "sampler": {"type": case.get("sampler", "independent")},
         },
     }
     ply_dir = os.path.join(work, "ply")

@@ -14,7 +14,7 @@ use crate::accel::Accel;
 use crate::integrator::Integrator;
 use crate::lights::LightSet;
 use crate::progress::{Progress, Stage};
-use crate::sampling::Rng;
+use crate::sampling::PixelSampler;
 use crate::scene::Scene;
 
 use super::compact::{active_slots, compact_rows};
@@ -147,11 +147,14 @@ pub fn bake_with(
                 entries: Vec::new(),
                 rays: 0,
             };
+            // One per row: it keeps the shuffle tables' memory between pixels.
+            let mut sampler = PixelSampler::new(spp, integ.draws_per_sample());
             for x in 0..w {
                 let pixel = y as u64 * w as u64 + x as u64;
                 let mut sink = TensorSink::new(layout, reflections);
+                sampler.start(opts.seed, pixel);
                 for s in 0..spp {
-                    let mut rng = Rng::for_sample(opts.seed, pixel, s as u64);
+                    let mut rng = sampler.sample(s);
                     sink.current = None;
                     out.rays += integ.trace_sample(&model, &mut sink, x, y, &mut rng) as u64;
                 }

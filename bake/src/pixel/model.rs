@@ -9,7 +9,7 @@ use prt_formats::Family;
 
 use crate::brdf::{cosine_hemisphere, reflect, BrdfParams, BrdfSample, Lobe};
 use crate::integrator::{MaterialModel, Slots, Surface, MAX_SLOTS};
-use crate::sampling::Rng;
+use crate::sampling::Draw;
 use crate::scene::Scene;
 
 use super::layout::SlotLayout;
@@ -109,7 +109,7 @@ impl MaterialModel for BakeModel<'_> {
         }
     }
 
-    fn sample(&self, s: &Surface, wo: Vec3, rng: &mut Rng) -> Option<BrdfSample> {
+    fn sample<D: Draw>(&self, s: &Surface, wo: Vec3, rng: &mut D) -> Option<BrdfSample> {
         let u_lobe = rng.next_f32();
         let u = rng.next_vec2();
         match self.mixtures[s.material as usize] {

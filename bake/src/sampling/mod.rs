@@ -5,7 +5,41 @@
 //! between pixels. The baker and the reference tracer draw from the same streams in the same
 //! order, which is what makes the bake-vs-reference exactness test possible.
 
+mod sobol;
+
+pub use sobol::{PathSampler, PixelSampler};
+
 use glam::{Vec2, Vec3};
+
+/// A source of uniform numbers in [0, 1): what BRDF and light sampling draw from. The camera
+/// paths draw from a [`PathSampler`] (stratified over a pixel's samples), the per-vertex
+/// baker from an [`Rng`].
+pub trait Draw {
+    fn next_f32(&mut self) -> f32;
+    fn next_vec2(&mut self) -> Vec2;
+}
+
+impl Draw for Rng {
+    #[inline]
+    fn next_f32(&mut self) -> f32 {
+        Rng::next_f32(self)
+    }
+    #[inline]
+    fn next_vec2(&mut self) -> Vec2 {
+        Rng::next_vec2(self)
+    }
+}
+
+impl Draw for PathSampler<'_> {
+    #[inline]
+    fn next_f32(&mut self) -> f32 {
+        PathSampler::next_f32(self)
+    }
+    #[inline]
+    fn next_vec2(&mut self) -> Vec2 {
+        PathSampler::next_vec2(self)
+    }
+}
 
 /// SplitMix64 finaliser: a good 64-bit mix for deriving stream seeds from keys.
 #[inline]
