@@ -270,6 +270,120 @@ def render_comparison(args, report):
 
 
 # ------------------------------------------------------------------------------------------
+# (c) Edits: the error of a relit edit against a fresh render of the edited scene
+
+# A GGX sphere filling the view under a real HDR map (Poly Haven's studio: one small, very
+# bright lamp), baked at alpha 0.12 and relit to other roughnesses of the basis' range
+# [0.02, 1]; the bunny is off screen, the floor fills the corners.
+EDIT_CASE = dict(
+    scene="scenes/vitrine/vitrine.gltf",
+    environment="scenes/envmaps/studio.exr",
+    camera=dict(position=[-0.17, 0.2, 0.45], target=[-0.17, 0.119, 0.0], yfov=0.35),
+    material="sphere",
+    baked=dict(editable=True, family="ggx", kd=[0.1, 0.1, 0.1], ks=0.6, alpha=0.12),
+)
+
+
+class Edits:
+    def __init__(self, args):
+        self.args = args
+        self.work = os.path.join(args.work, "edits")
+        os.makedirs(self.work, exist_ok=True)
+
+    def config(self, seed, spp, tag):
+        a, c = self.args, EDIT_CASE
+        toml = mitsuba_check.toml_value
+        cfg = os.path.join(self.work, "%s-seed%d.toml" % (tag, seed))
+        lines = ["scene = %s" % toml(os.path.join(ROOT, c["scene"])), 'mode = "pixel"',
+                 "output = %s" % toml(cfg[:-5] + ".prtbake"),
+                 "width = %d" % a.edit_size, "height = %d" % a.edit_size, "spp = %d" % spp,
+                 "reflections = %d" % a.reflections, "seed = %d" % seed, "", "[camera]"]
+        lines += ["%s = %s" % (k, toml(v)) for k, v in c["camera"].items()]
+        lines += ["", "[environment]", "map = %s" % toml(os.path.join(ROOT, c["environment"])),
+                  "", "[materials.%s]" % c["material"]]
+        lines += ["%s = %s" % (k, toml(v)) for k, v in c["baked"].items()]
+        with open(cfg, "w") as f:
+            f.write("\n".join(lines) + "\n")
+        return cfg
+
+    def truth(self, alpha):
+        """Our reference at --edit-gt-spp (another seed), cached by everything that sets it,
+        the reference binary included."""
+        a = self.args
+        binary = os.path.join(a.edit_truth_bin or a.bin, "reference")
+        with open(binary, "rb") as f:
+            bin_hash = hashlib.sha256(f.read()).hexdigest()[:16]
+        key = json.dumps(dict(case=EDIT_CASE, alpha=alpha, size=a.edit_size,
+                              spp=a.edit_gt_spp, reflections=a.reflections, bin=bin_hash),
+                         sort_keys=True)
+        path = os.path.join(self.work, "gt-%s.npy" % hashlib.sha256(key.encode()).hexdigest()[:16])
+        if not os.path.exists(path):
+            log("edits: ground truth at alpha %g, %d spp" % (alpha, a.edit_gt_spp))
+            cfg = self.config(1_000_000, a.edit_gt_spp, "gt")
+            exr = cfg[:-5] + ".exr"
+            run_json([binary, cfg, "--json", "--out", exr,
+                      "--set", "%s.alpha=%g" % (EDIT_CASE["material"], alpha)])
+            np.save(path, mitsuba_check.read_exr(exr))
+        return np.load(path)
+
+    def fresh(self, seed, alpha, bin_dir):
+        cfg = self.config(seed, self.args.spp, "fresh")
+        exr = cfg[:-5] + "-%g.exr" % alpha
+        run_json([os.path.join(bin_dir, "reference"), cfg, "--json", "--out", exr,
+                  "--set", "%s.alpha=%g" % (EDIT_CASE["material"], alpha)])
+        return mitsuba_check.read_exr(exr)
+
+    def relit(self, seed, alphas, bin_dir):
+        cfg = self.config(seed, self.args.spp, "bake")
+        run_json([os.path.join(bin_dir, "bake"), cfg, "--json"])
+        out = {}
+        for alpha in alphas:
+            exr = cfg[:-5] + "-%g.exr" % alpha
+            run_json([os.path.join(bin_dir, "relight"), cfg[:-5] + ".prtbake", "--out", exr,
+                      "--json", "--set", "%s.alpha=%g" % (EDIT_CASE["material"], alpha)])
+            out[alpha] = mitsuba_check.read_exr(exr)
+        os.remove(cfg[:-5] + ".prtbake")
+        return out
+
+
+def edit_comparison(args, report):
+    e = Edits(args)
+    alphas = [float(x) for x in args.edit_alphas.split(",")]
+    truths = {alpha: e.truth(alpha) for alpha in alphas}
+    bins = {"ours": args.bin}
+    if args.bin_before:
+        bins["before"] = args.bin_before
+    err = {(b, kind, alpha): [] for b in bins for kind in ("fresh", "relit") for alpha in alphas}
+    for rnd in range(args.rounds):
+        seed = rnd + 1
+        for b, bin_dir in bins.items():
+            relit = e.relit(seed, alphas, bin_dir)
+            for alpha in alphas:
+                err[(b, "relit", alpha)].append(rel_l2(relit[alpha], truths[alpha]))
+                fresh = e.fresh(seed, alpha, bin_dir)
+                err[(b, "fresh", alpha)].append(rel_l2(fresh, truths[alpha]))
+        log("edits: round %d/%d done" % (rnd + 1, args.rounds))
+    c = EDIT_CASE
+    print("\n(c) Edits: %s (GGX, kd %s, ks %g) baked at alpha %g under %s, %dx%d, %d spp, %d "
+          "reflections; relit to each alpha against `reference` rendered at that alpha (a fresh "
+          "render, same spp); truth: `reference` at %d spp; rel. L2 RMS over %d seeds" % (
+              c["material"], c["baked"]["kd"], c["baked"]["ks"], c["baked"]["alpha"],
+              c["environment"], args.edit_size, args.edit_size, args.spp, args.reflections,
+              args.edit_gt_spp, args.rounds))
+    print("  %-8s %7s %12s %12s %16s" % ("binaries", "alpha", "fresh %", "relit %",
+                                         "relit / fresh"))
+    rms = {k: float(np.sqrt(np.mean(np.square(v)))) for k, v in err.items()}
+    for b in bins:
+        for alpha in alphas:
+            f, r = rms[(b, "fresh", alpha)], rms[(b, "relit", alpha)]
+            print("  %-8s %7g %12.3f %12.3f %15.2fx" % (b, alpha, 100 * f, 100 * r, r / f))
+    report["edits"] = dict(case=EDIT_CASE, alphas=alphas, size=args.edit_size, spp=args.spp,
+                           gt_spp=args.edit_gt_spp, rounds=args.rounds,
+                           rel_l2_rms={"%s %s %g" % k: v for k, v in rms.items()},
+                           rounds_raw={"%s %s %g" % k: v for k, v in err.items()})
+
+
+# ------------------------------------------------------------------------------------------
 # (b) Rays
 
 class Ours:
@@ -475,19 +589,29 @@ def main():
                          "own default")
     ap.add_argument("--skip-render", action="store_true")
     ap.add_argument("--skip-rays", action="store_true")
+    ap.add_argument("--skip-edits", action="store_true")
+    ap.add_argument("--edit-size", type=int, help="image size of the edit comparison "
+                    "(default 96)")
+    ap.add_argument("--edit-gt-spp", type=int, help="samples per pixel of the edit "
+                    "comparison's truth (default 4096)")
+    ap.add_argument("--edit-truth-bin", help="folder of the `reference` that renders the edit "
+                    "comparison's truth (default --bin; its truths are cached per binary)")
+    ap.add_argument("--edit-alphas", default="0.03,0.06,0.12,0.25,0.5",
+                    help="roughnesses the sphere is relit to (comma-separated)")
     ap.add_argument("--json", help="also write every figure (per round) to this file "
                     "(default <work>/last.json)")
     args = ap.parse_args()
     quick = dict(size=64, spp=16, gt_spp=1024, rounds=2, rays=200_000,
-                 ray_scenes="cornell,100k")
+                 ray_scenes="cornell,100k", edit_size=32, edit_gt_spp=256)
     full = dict(size=256, spp=256, gt_spp=8192, rounds=5, rays=2_000_000,
-                ray_scenes="cornell,100k,1m")
+                ray_scenes="cornell,100k,1m", edit_size=96, edit_gt_spp=4096)
     for key, value in (quick if args.quick else full).items():
         if getattr(args, key) is None:
             setattr(args, key, value)
     args.width = args.width or args.size
     args.height = args.height or args.size
-    for key in ("width", "height", "spp", "gt_spp", "rounds", "rays", "reflections"):
+    for key in ("width", "height", "spp", "gt_spp", "rounds", "rays", "reflections",
+                "edit_size", "edit_gt_spp"):
         if getattr(args, key) < 1:
             sys.exit("--%s must be at least 1" % key.replace("_", "-"))
     args.work = os.path.abspath(args.work)
@@ -504,6 +628,8 @@ def main():
         render_comparison(args, report)
     if not args.skip_rays:
         ray_comparison(args, report)
+    if not args.skip_edits:
+        edit_comparison(args, report)
     path = args.json or os.path.join(args.work, "last.json")
     with open(path, "w") as f:
         json.dump(report, f, indent=1, default=str)
