@@ -76,11 +76,16 @@ impl Accel {
                 simd,
             };
         }
-        // Pre-splitting large triangles (slow_build) pays off on scenes mixing big walls with
-        // fine meshes: measured up to 1.7x faster short (occlusion) rays, never slower.
+        // Pre-splitting large triangles (slow_build and up) pays off on scenes mixing big walls
+        // with fine meshes: measured up to 1.7x faster short (occlusion) rays, never slower.
+        // very_slow_build (a full pass of reinsertion instead of a fifth, PLOC's wider search
+        // at the top only) gives the Cornell box a better tree still: 1.8x faster closest hit
+        // and 1.5x faster occlusion (CPU time, interleaved), the same on 100K triangles,
+        // within 5 % on 1M; it builds 1M triangles in about 4 s instead of 2. Reinsertion
+        // ratio 2 measured no better; slow_build with ratio 1 got half the gain.
         let bvh = build_cwbvh_from_tris(
             tris,
-            BvhBuildParams::slow_build(),
+            BvhBuildParams::very_slow_build(),
             &mut std::time::Duration::default(),
         );
         let vertices: Vec<[Vec3A; 3]> = tris.iter().map(|t| [t.v0, t.v1, t.v2]).collect();
