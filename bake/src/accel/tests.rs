@@ -5,7 +5,7 @@
 use glam::{Vec2, Vec3};
 use obvhs::triangle::Triangle;
 
-use super::{brute_force_intersect, Accel};
+use super::{brute_force_intersect, Accel, Simd};
 use crate::sampling::{uniform_sphere, Rng};
 
 fn tri(a: Vec3, b: Vec3, c: Vec3) -> Triangle {
@@ -280,28 +280,34 @@ fn rays_leaving_next_to_a_corner_hit_the_adjacent_wall() {
 }
 
 #[test]
-fn avx2_and_portable_paths_agree_bit_for_bit() {
-    let mut accel = Accel::from_triangles(&[]);
-    if !accel.avx2 {
+fn simd_and_portable_paths_agree_bit_for_bit() {
+    let top = Accel::from_triangles(&[]).simd;
+    let paths: Vec<Simd> = [Simd::Avx2, Simd::Avx512]
+        .into_iter()
+        .filter(|&p| p == Simd::Avx2 && top != Simd::Portable || p == top)
+        .collect();
+    if paths.is_empty() {
         eprintln!("no AVX2 on this CPU: nothing to compare");
         return;
     }
     let mut rng = Rng::for_sample(7, 8, 9);
     let mut tris = random_triangles(2000, &mut rng);
     tris.extend(triangles(&grid_cube(5)));
-    accel = Accel::from_triangles(&tris);
+    let accel = Accel::from_triangles(&tris);
+    let bits = |h: Option<(u32, f32, f32, f32)>| {
+        h.map(|h| (h.0, h.1.to_bits(), h.2.to_bits(), h.3.to_bits()))
+    };
     for _ in 0..5000 {
         let o = rand3(&mut rng) * 6.0 - 3.0;
         let d = uniform_sphere(rng.next_vec2());
-        let a = accel.query::<false>(o, d, 0.0, f32::INFINITY, true);
-        let p = accel.query::<false>(o, d, 0.0, f32::INFINITY, false);
-        assert_eq!(
-            a.map(|h| (h.0, h.1.to_bits(), h.2.to_bits(), h.3.to_bits())),
-            p.map(|h| (h.0, h.1.to_bits(), h.2.to_bits(), h.3.to_bits()))
-        );
-        let a = accel.query::<true>(o, d, 0.0, 1.5, true);
-        let p = accel.query::<true>(o, d, 0.0, 1.5, false);
-        assert_eq!(a.map(|h| h.0), p.map(|h| h.0));
+        let p = accel.query::<false>(o, d, 0.0, f32::INFINITY, Simd::Portable);
+        let po = accel.query::<true>(o, d, 0.0, 1.5, Simd::Portable);
+        for &path in &paths {
+            let a = accel.query::<false>(o, d, 0.0, f32::INFINITY, path);
+            assert_eq!(bits(a), bits(p), "{path:?}");
+            let a = accel.query::<true>(o, d, 0.0, 1.5, path);
+            assert_eq!(a.map(|h| h.0), po.map(|h| h.0), "{path:?}");
+        }
     }
 }
 
@@ -322,24 +328,26 @@ fn empty_scene_has_no_hits() {
     let _ = Vec2::ZERO;
 }
 
-/// The four-lane leaf test gives, bit for bit, what the one-triangle test gives on each of
-/// the leaf's triangles (closest: least t, lowest lane on ties; occlusion: any), ignores the
-/// lanes past the leaf's count, and takes the f64 path on edges like the one-triangle test.
+/// The sixteen-lane leaf test gives, on every SIMD path, bit for bit what the one-triangle
+/// test gives on each active lane's triangle (closest: least t, lowest lane on ties;
+/// occlusion: any), ignores the inactive lanes (they hold a triangle every ray hits), and
+/// takes the f64 path on edges like the one-triangle test.
 #[test]
-fn four_lane_leaf_test_equals_the_one_triangle_test() {
-    use super::triangle::{intersect, intersect4, RayTri, Tri};
+fn sixteen_lane_leaf_test_equals_the_one_triangle_test() {
+    use super::triangle::{intersect, intersect16, Lanes, Portable16, RayTri, Tri};
     let mut rng = Rng::for_sample(10, 11, 12);
-    // Leaves of 1 to 3 triangles around the origin; a ray from a random point aimed at a
-    // random vertex, edge point or interior point of one of them (edges: the f64 path), and
-    // the rows padded with a triangle every ray hits, which only the lane mask keeps out.
     let big = tri(
         Vec3::new(-50.0, -50.0, 0.01),
         Vec3::new(50.0, -50.0, 0.02),
         Vec3::new(0.0, 50.0, 0.015),
     );
+    let top = Accel::from_triangles(&[]).simd;
     let (mut hits, mut edges) = (0, 0);
     for case in 0..20000 {
-        let n = 1 + case % 3;
+        // Blocks of 1 to 24 triangles (a node's leaves) around the origin, some of them
+        // inactive; a ray from a random point aimed at a random vertex, edge point or
+        // interior point of an active one (edges: the f64 path).
+        let n = 1 + case % 24;
         let mut tris: Vec<Triangle> = random_triangles(n, &mut rng)
             .iter()
             .map(|t| {
@@ -356,22 +364,30 @@ fn four_lane_leaf_test_equals_the_one_triangle_test() {
             tris[1].v0 = tris[0].v1;
             tris[1].v1 = tris[0].v0;
         }
-        let mut rows = vec![0.0f32; 9 * n + 4];
-        let mut padded = tris.clone();
-        padded.extend(std::iter::repeat_n(big, 4 - n));
+        let block = if n > 16 && case % 2 == 1 { 1 } else { 0 };
+        let lanes = (n - 16 * block).min(16);
+        let mut active = (rng.next_f32() * 65536.0) as u32 & ((1u32 << lanes) - 1);
+        let aim = 16 * block + (case / 24) % lanes;
+        active |= 1 << (aim - 16 * block);
+        let inactive: Vec<usize> = (0..n)
+            .filter(|&i| i / 16 != block || active >> (i % 16) & 1 == 0)
+            .collect();
+        for &i in &inactive {
+            tris[i] = big;
+        }
+        // Rows of n as in the BVH, the pad past them holding the big triangle too.
+        let mut rows = vec![0.0f32; 9 * n + 16];
         for k in 0..3 {
             for axis in 0..3 {
-                for (lane, t) in padded.iter().enumerate() {
-                    let v = [t.v0, t.v1, t.v2][k];
-                    // Lanes past n land in the next rows (as in the BVH), the last in the pad.
-                    let at = (3 * k + axis) * n + lane;
-                    if lane < n || at >= 9 * n {
-                        rows[at] = v[axis];
-                    }
+                for (lane, t) in tris.iter().enumerate() {
+                    rows[(3 * k + axis) * n + lane] = [t.v0, t.v1, t.v2][k][axis];
                 }
             }
         }
-        let t0 = tris[case % n];
+        for (i, x) in rows.iter_mut().enumerate().skip(9 * n) {
+            *x = [big.v0, big.v1, big.v2][2][i % 3];
+        }
+        let t0 = tris[aim];
         let (a, b, c) = (Vec3::from(t0.v0), Vec3::from(t0.v1), Vec3::from(t0.v2));
         let target = match case % 4 {
             0 => a,
@@ -391,7 +407,11 @@ fn four_lane_leaf_test_equals_the_one_triangle_test() {
         let r = RayTri::new(o, d);
         let tmax = if case % 5 == 0 { 1.0 } else { f32::INFINITY };
         let mut expect: Option<(usize, f32, f32, f32)> = None;
-        for (lane, t) in tris.iter().enumerate() {
+        for lane in 0..lanes {
+            if active >> lane & 1 == 0 {
+                continue;
+            }
+            let t = tris[16 * block + lane];
             let one = Tri {
                 v: [t.v0, t.v1, t.v2],
             };
@@ -404,10 +424,62 @@ fn four_lane_leaf_test_equals_the_one_triangle_test() {
         let bits = |h: Option<(usize, f32, f32, f32)>| {
             h.map(|h| (h.0, h.1.to_bits(), h.2.to_bits(), h.3.to_bits()))
         };
-        let got = intersect4::<false>(&rows, n, &r, 0.0, tmax);
-        assert_eq!(bits(got), bits(expect), "case {case}: {tris:?} o {o} d {d}");
-        let any = intersect4::<true>(&rows, n, &r, 0.0, tmax);
-        assert_eq!(any.is_some(), expect.is_some(), "case {case}: occlusion");
+        let p = rows[16 * block..].as_ptr();
+        // SAFETY: rows of n from p, sixteen lanes each: 8 n + 16 values, within `rows`;
+        // each path is taken only where `top` says the CPU has it.
+        unsafe fn both<L: Lanes>(
+            p: *const f32,
+            n: usize,
+            active: u32,
+            r: &RayTri,
+            tmax: f32,
+        ) -> (Option<(usize, f32, f32, f32)>, bool) {
+            unsafe {
+                (
+                    intersect16::<false, L>(p, n, active, r, 0.0, tmax),
+                    intersect16::<true, L>(p, n, active, r, 0.0, tmax).is_some(),
+                )
+            }
+        }
+        let mut got = vec![unsafe { both::<Portable16>(p, n, active, &r, tmax) }];
+        #[cfg(target_arch = "x86_64")]
+        {
+            use super::triangle::{Avx2x16, Avx512x16};
+            if top != Simd::Portable {
+                got.push(unsafe { avx2_both(p, n, active, &r, tmax) });
+            }
+            if top == Simd::Avx512 {
+                got.push(unsafe { avx512_both(p, n, active, &r, tmax) });
+            }
+            #[target_feature(enable = "avx2")]
+            unsafe fn avx2_both(
+                p: *const f32,
+                n: usize,
+                active: u32,
+                r: &RayTri,
+                tmax: f32,
+            ) -> (Option<(usize, f32, f32, f32)>, bool) {
+                unsafe { both::<Avx2x16>(p, n, active, r, tmax) }
+            }
+            #[target_feature(enable = "avx2,avx512f")]
+            unsafe fn avx512_both(
+                p: *const f32,
+                n: usize,
+                active: u32,
+                r: &RayTri,
+                tmax: f32,
+            ) -> (Option<(usize, f32, f32, f32)>, bool) {
+                unsafe { both::<Avx512x16>(p, n, active, r, tmax) }
+            }
+        }
+        for (path, (closest, any)) in got.into_iter().enumerate() {
+            assert_eq!(
+                bits(closest),
+                bits(expect),
+                "case {case} path {path}: {tris:?} o {o} d {d}"
+            );
+            assert_eq!(any, expect.is_some(), "case {case} path {path}: occlusion");
+        }
         hits += expect.is_some() as usize;
         edges += (case % 4 < 2) as usize;
     }
