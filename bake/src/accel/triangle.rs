@@ -236,7 +236,9 @@ pub(super) struct Avx512x16(std::arch::x86_64::__m512);
 
 #[cfg(target_arch = "x86_64")]
 mod simd {
-    use super::{Avx2x16, Avx512x16, Lanes};
+    // `crate::` rather than `super::`: this is a module inside triangle.rs, whose items it
+    // implements (and .ci/import_circles.py reads `super::` as the file's parent).
+    use crate::accel::triangle::{Avx2x16, Avx512x16, Lanes};
     use std::arch::x86_64::*;
 
     macro_rules! avx2_op {
