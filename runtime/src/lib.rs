@@ -329,16 +329,11 @@ impl Relighter {
                             // pixel, and the compiler vectorises the additions.
                             let run = &mut out[start..start + ids.len()];
                             for (k, o) in run.iter_mut().enumerate() {
-                                o[0] += acc[0][k];
-                                o[1] += acc[1][k];
-                                o[2] += acc[2][k];
+                                add_pixel(o, acc, k);
                             }
                         } else {
                             for (k, p) in ids.iter().enumerate() {
-                                let o = &mut out[(p - lo) as usize];
-                                o[0] += acc[0][k];
-                                o[1] += acc[1][k];
-                                o[2] += acc[2][k];
+                                add_pixel(&mut out[(p - lo) as usize], acc, k);
                             }
                         }
                         i = end;
@@ -354,6 +349,14 @@ impl Relighter {
             bytes_read,
         })
     }
+}
+
+/// Adds pixel `k` of a block's channel-major accumulators to an image pixel.
+#[inline(always)]
+fn add_pixel(o: &mut [f32; 3], acc: &[Vec<f32>; 3], k: usize) {
+    o[0] += acc[0][k];
+    o[1] += acc[1][k];
+    o[2] += acc[2][k];
 }
 
 /// Image rows per parallel band.
