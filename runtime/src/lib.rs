@@ -19,6 +19,7 @@
 
 #![warn(missing_docs)]
 
+mod contract;
 mod error;
 pub mod light;
 mod materials;
@@ -37,6 +38,7 @@ use prt_formats::vertex::BakeKind;
 use prt_formats::{BakeFile, Dtype};
 use rayon::prelude::*;
 
+use contract::{tiles_f16, tiles_f32, Column};
 use materials::Materials;
 
 /// Which representation to relight from.
@@ -266,13 +268,14 @@ impl Relighter {
             let len = gm.row_len as usize;
             let pixels = self.file.tensor(&names::pixels(g))?.as_u32()?;
             bytes_read += (pixels.len() * 4) as u64;
-            let data = match variant {
+            let np = pixels.len();
+            let columns = match variant {
                 Variant::Full => {
                     let t = self.file.tensor(&names::transfer(g))?;
                     bytes_read += t.bytes().len() as u64;
                     match t.dtype() {
-                        Dtype::F16 => Rows::F16(t.as_f16()?, gm.scale),
-                        _ => Rows::F32(t.as_f32()?),
+                        Dtype::F16 => Columns::F16(element_columns(t.as_f16()?, &w, gm.scale, np)),
+                        _ => Columns::F32(element_columns(t.as_f32()?, &w, 1.0, np), [0.0; 3]),
                     }
                 }
                 Variant::Compressed => {
@@ -281,25 +284,21 @@ impl Relighter {
                     let comps = self.file.tensor(&names::components(g))?.as_f32()?;
                     let z = self.file.tensor(&names::weights(g))?.as_f32()?;
                     bytes_read += ((mean.len() + comps.len() + z.len()) * 4) as u64;
-                    // Contract the mean and the K components once per frame.
+                    // Contract the mean and the K components once per frame; each pixel's
+                    // K weights are then its columns.
                     let base = dot3(mean, &w, len);
-                    let s: Vec<[f32; 3]> = (0..k)
-                        .map(|r| dot3(&comps[r * len..(r + 1) * len], &w, len))
+                    let cols = z
+                        .chunks_exact(np.max(1))
+                        .take(k)
+                        .enumerate()
+                        .map(|(r, zr)| (zr, dot3(&comps[r * len..(r + 1) * len], &w, len)))
                         .collect();
-                    Rows::Compressed { base, s, z }
+                    Columns::F32(cols, base)
                 }
             };
-            groups.push(GroupFrame {
-                pixels,
-                len,
-                w,
-                data,
-            });
+            groups.push(GroupFrame { pixels, columns });
         }
         let (width, height) = (self.meta.width as usize, self.meta.height as usize);
-        // Zeroed pages from the allocator; each band copies its own emission in (in parallel
-        // and while the band is in cache: a serial copy of the whole image took 8 % of a
-        // frame).
         let mut pixels = vec![[0.0f32; 3]; width * height];
         let simd = self.kernel == Kernel::Auto;
         let band = (width * BAND_ROWS).max(1);
@@ -309,31 +308,32 @@ impl Relighter {
             .for_each(|(b, out)| {
                 let lo = (b * band) as u32;
                 let hi = lo + out.len() as u32;
+                // Each band copies its own emission (in parallel, and while the band is in
+                // cache: a serial copy of the whole image took 8 % of a frame).
+                let flat = out.as_flattened_mut();
                 if let Some(e) = emission.get(3 * lo as usize..3 * hi as usize) {
-                    for (o, e) in out.iter_mut().zip(e.chunks_exact(3)) {
-                        *o = [e[0], e[1], e[2]];
-                    }
+                    flat.copy_from_slice(e);
                 }
-                let mut scratch = Scratch::default();
+                let mut acc: [Vec<f32>; 3] = Default::default();
                 for g in &groups {
                     let first = g.pixels.partition_point(|&p| p < lo);
                     let last = g.pixels.partition_point(|&p| p < hi);
                     let mut i = first;
                     while i < last {
                         let end = (i + BLOCK).min(last);
-                        let acc = g.contract_block(i, end, simd, &mut scratch);
+                        g.contract_block(i, end, simd, &mut acc);
                         let ids = &g.pixels[i..end];
                         let start = (ids[0] - lo) as usize;
+                        let [a0, a1, a2] = &acc;
+                        let acc = a0.iter().zip(a1).zip(a2);
                         if (ids[ids.len() - 1] - ids[0]) as usize == ids.len() - 1 {
                             // Consecutive pixels (most of a group's blocks): no index per
-                            // pixel, and the compiler vectorises the additions.
+                            // pixel.
                             let run = &mut out[start..start + ids.len()];
-                            for (k, o) in run.iter_mut().enumerate() {
-                                add_pixel(o, acc, k);
-                            }
+                            run.iter_mut().zip(acc).for_each(add_pixel);
                         } else {
-                            for (k, p) in ids.iter().enumerate() {
-                                add_pixel(&mut out[(p - lo) as usize], acc, k);
+                            for (&p, a) in ids.iter().zip(acc) {
+                                add_pixel((&mut out[(p - lo) as usize], a));
                             }
                         }
                         i = end;
@@ -351,12 +351,10 @@ impl Relighter {
     }
 }
 
-/// Adds pixel `k` of a block's channel-major accumulators to an image pixel.
+/// Adds a block's radiance for one pixel (its three channel accumulators) to the image.
 #[inline(always)]
-fn add_pixel(o: &mut [f32; 3], acc: &[Vec<f32>; 3], k: usize) {
-    o[0] += acc[0][k];
-    o[1] += acc[1][k];
-    o[2] += acc[2][k];
+fn add_pixel((o, ((r, g), b)): (&mut [f32; 3], ((&f32, &f32), &f32))) {
+    *o = [o[0] + r, o[1] + g, o[2] + b];
 }
 
 /// Image rows per parallel band.
@@ -366,257 +364,51 @@ const BLOCK: usize = 256;
 
 /// One group's data for a frame.
 struct GroupFrame<'a> {
+    /// The group's pixels, ascending.
     pixels: &'a [u32],
-    len: usize,
-    /// Contraction weights, 3 x len (channel-major).
-    w: Vec<f32>,
-    data: Rows<'a>,
+    columns: Columns<'a>,
 }
 
-/// A group's values, stored element-major: value e of pixel i at `e * pixels + i`.
-enum Rows<'a> {
-    F32(&'a [f32]),
-    F16(&'a [f16], f32),
-    /// Low rank: radiance = base + sum_r z[r, i] s[r].
-    Compressed {
-        base: [f32; 3],
-        s: Vec<[f32; 3]>,
-        z: &'a [f32],
-    },
+/// A group's stored columns with a nonzero weight (one per stored element, or per low-rank
+/// component), each with its weight per output channel; column i holds pixel i's values.
+enum Columns<'a> {
+    /// f32 columns and the radiance every pixel starts from (the low-rank mean's, else 0).
+    F32(Vec<Column<'a, f32>>, [f32; 3]),
+    /// f16 columns (the group's scale is folded into the weights).
+    F16(Vec<Column<'a, f16>>),
 }
 
-/// Per-band working memory.
-#[derive(Default)]
-struct Scratch {
-    acc: [Vec<f32>; 3],
-    terms: Vec<Term>,
-}
-
-/// One stored element (or low-rank component) with a nonzero weight: where its column
-/// starts and its weight per output channel.
-#[derive(Clone, Copy)]
-struct Term {
-    offset: usize,
-    w: [f32; 3],
+/// The columns of element-major values (value e of pixel i at `e * pixels + i`) whose
+/// weight is nonzero; `w` is 3 x len, channel-major, and `scale` multiplies it.
+fn element_columns<'a, T>(t: &'a [T], w: &[f32], scale: f32, pixels: usize) -> Vec<Column<'a, T>> {
+    let len = w.len() / 3;
+    t.chunks_exact(pixels.max(1))
+        .take(len)
+        .enumerate()
+        .map(|(e, col)| {
+            (
+                col,
+                [w[e] * scale, w[len + e] * scale, w[2 * len + e] * scale],
+            )
+        })
+        .filter(|(_, we)| *we != [0.0; 3])
+        .collect()
 }
 
 impl GroupFrame<'_> {
-    /// The elements with nonzero weight and their column offsets.
-    fn terms(&self, out: &mut Vec<Term>) -> [f32; 3] {
-        out.clear();
-        let np = self.pixels.len();
-        let len = self.len;
-        let w = &self.w;
-        match &self.data {
-            Rows::F32(_) | Rows::F16(..) => {
-                let scale = if let Rows::F16(_, s) = &self.data {
-                    *s
-                } else {
-                    1.0
-                };
-                for e in 0..len {
-                    let we = [w[e] * scale, w[len + e] * scale, w[2 * len + e] * scale];
-                    if we != [0.0; 3] {
-                        out.push(Term {
-                            offset: e * np,
-                            w: we,
-                        });
-                    }
-                }
-                [0.0; 3]
-            }
-            Rows::Compressed { base, s, .. } => {
-                for (r, sr) in s.iter().enumerate() {
-                    out.push(Term {
-                        offset: r * np,
-                        w: *sr,
-                    });
-                }
-                *base
-            }
-        }
-    }
-
-    /// Radiance of the group's pixels `i0..i1` (at most [`BLOCK`]), per channel; `simd` allows
-    /// the vector kernels.
-    fn contract_block<'s>(
-        &self,
-        i0: usize,
-        i1: usize,
-        simd: bool,
-        sc: &'s mut Scratch,
-    ) -> &'s [Vec<f32>; 3] {
+    /// Radiance of the group's pixels `i0..i1` (at most [`BLOCK`]), per channel, into `acc`;
+    /// `simd` allows the vector kernels.
+    fn contract_block(&self, i0: usize, i1: usize, simd: bool, acc: &mut [Vec<f32>; 3]) {
         let n = i1 - i0;
-        for a in sc.acc.iter_mut() {
-            a.clear();
+        for a in acc.iter_mut() {
+            // Every value is written by the kernel: no clearing needed.
             a.resize(n, 0.0);
         }
-        let mut terms = std::mem::take(&mut sc.terms);
-        let init = self.terms(&mut terms);
-        match &self.data {
-            Rows::F32(t) => tiles_f32(t, &terms, i0, init, simd, &mut sc.acc),
-            Rows::F16(t, _) => tiles_f16(t, &terms, i0, init, simd, &mut sc.acc),
-            Rows::Compressed { z, .. } => tiles_f32(z, &terms, i0, init, simd, &mut sc.acc),
-        }
-        sc.terms = terms;
-        &sc.acc
-    }
-}
-
-/// Pixels whose three accumulators stay in registers while every term is added.
-const TILE: usize = 8;
-
-/// `acc[c][k] = init[c] + sum_terms w[c] * col[i0 + k]` for k < acc[0].len(), reading each
-/// stored value once; the per-lane arithmetic (multiply, then add, in term order) is the same
-/// in every instruction set, so results are bit-identical whatever the CPU.
-#[inline(always)]
-fn tiles_impl<T: Copy>(
-    t: &[T],
-    terms: &[Term],
-    i0: usize,
-    init: [f32; 3],
-    acc: &mut [Vec<f32>; 3],
-    load: impl Fn(&[T]) -> [f32; TILE],
-    one: impl Fn(T) -> f32,
-) {
-    let n = acc[0].len();
-    let full = n - n % TILE;
-    let mut k = 0;
-    while k < full {
-        let mut r = [[init[0]; TILE], [init[1]; TILE], [init[2]; TILE]];
-        for term in terms {
-            let start = term.offset + i0 + k;
-            let Some(src) = t.get(start..start + TILE) else {
-                continue;
-            };
-            let x = load(src);
-            for l in 0..TILE {
-                r[0][l] += term.w[0] * x[l];
-                r[1][l] += term.w[1] * x[l];
-                r[2][l] += term.w[2] * x[l];
-            }
-        }
-        for (c, rc) in r.iter().enumerate() {
-            acc[c][k..k + TILE].copy_from_slice(rc);
-        }
-        k += TILE;
-    }
-    for k in full..n {
-        let mut r = init;
-        for term in terms {
-            if let Some(&v) = t.get(term.offset + i0 + k) {
-                let x = one(v);
-                r[0] += term.w[0] * x;
-                r[1] += term.w[1] * x;
-                r[2] += term.w[2] * x;
-            }
-        }
-        for (a, v) in acc.iter_mut().zip(r) {
-            a[k] = v;
+        match &self.columns {
+            Columns::F32(cols, init) => tiles_f32(cols, i0, *init, simd, acc),
+            Columns::F16(cols) => tiles_f16(cols, i0, [0.0; 3], simd, acc),
         }
     }
-}
-
-#[inline(always)]
-fn load_f32(src: &[f32]) -> [f32; TILE] {
-    let mut x = [0.0; TILE];
-    x.copy_from_slice(&src[..TILE]);
-    x
-}
-
-fn tiles_f32(
-    t: &[f32],
-    terms: &[Term],
-    i0: usize,
-    init: [f32; 3],
-    simd: bool,
-    acc: &mut [Vec<f32>; 3],
-) {
-    #[cfg(target_arch = "x86_64")]
-    if simd && std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU supports AVX2 (checked just above).
-        unsafe { tiles_f32_avx2(t, terms, i0, init, acc) };
-        return;
-    }
-    tiles_impl(t, terms, i0, init, acc, load_f32, |v| v);
-}
-
-/// The same kernel compiled for AVX2 (8-wide registers for the tile).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn tiles_f32_avx2(
-    t: &[f32],
-    terms: &[Term],
-    i0: usize,
-    init: [f32; 3],
-    acc: &mut [Vec<f32>; 3],
-) {
-    tiles_impl(t, terms, i0, init, acc, load_f32, |v| v);
-}
-
-fn tiles_f16(
-    t: &[f16],
-    terms: &[Term],
-    i0: usize,
-    init: [f32; 3],
-    simd: bool,
-    acc: &mut [Vec<f32>; 3],
-) {
-    #[cfg(target_arch = "x86_64")]
-    if simd
-        && std::arch::is_x86_feature_detected!("avx2")
-        && std::arch::is_x86_feature_detected!("f16c")
-    {
-        // SAFETY: the CPU supports AVX2 and F16C (checked just above).
-        unsafe { tiles_f16_avx2(t, terms, i0, init, acc) };
-        return;
-    }
-    tiles_impl(
-        t,
-        terms,
-        i0,
-        init,
-        acc,
-        |src| {
-            let mut x = [0.0; TILE];
-            for (o, v) in x.iter_mut().zip(src) {
-                *o = v.to_f32();
-            }
-            x
-        },
-        f16::to_f32,
-    );
-}
-
-/// The f16 kernel with inline hardware conversion (F16C) and AVX2 registers.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,f16c")]
-unsafe fn tiles_f16_avx2(
-    t: &[f16],
-    terms: &[Term],
-    i0: usize,
-    init: [f32; 3],
-    acc: &mut [Vec<f32>; 3],
-) {
-    use std::arch::x86_64::{__m128i, _mm256_cvtph_ps, _mm256_storeu_ps, _mm_loadu_si128};
-    tiles_impl(
-        t,
-        terms,
-        i0,
-        init,
-        acc,
-        |src| {
-            let mut x = [0.0f32; TILE];
-            // SAFETY: `src` holds at least TILE (8) f16 values = 16 bytes (callers slice it
-            // to TILE); unaligned load and store; F16C is enabled for this function.
-            unsafe {
-                let h = _mm_loadu_si128(src.as_ptr() as *const __m128i);
-                _mm256_storeu_ps(x.as_mut_ptr(), _mm256_cvtph_ps(h));
-            }
-            x
-        },
-        f16::to_f32,
-    );
 }
 
 /// `sum_e W[c][e] x[e]` for the three output channels (`w` is 3 x len, channel-major), used

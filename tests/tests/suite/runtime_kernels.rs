@@ -19,8 +19,8 @@ fn scalar_and_vector_kernels_give_bit_identical_frames() {
     let scene = test_scene(Vec3::new(1.0, 0.8, 0.6), Vec3::new(0.05, 0.1, 0.2));
     let bases = bases_for(&scene, 4);
     for precision in [Precision::F32, Precision::F16] {
-        // 29 pixels per row: groups have pixel runs that are not multiples of the 8-wide tile,
-        // so the remainder loop runs too.
+        // 29 pixels per row: groups have pixel runs that are not multiples of the tiles (8
+        // wide portable, 16 wide AVX2), so the remainder loops run too.
         let mut opts = small_options(29, 18, 2, 2, precision);
         opts.compress_rank = Some(3);
         let (_, path) = bake_to_file(
