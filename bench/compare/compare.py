@@ -302,6 +302,8 @@ class Edits:
         lines += ["", "[environment]", "map = %s" % toml(os.path.join(ROOT, c["environment"])),
                   "", "[materials.%s]" % c["material"]]
         lines += ["%s = %s" % (k, toml(v)) for k, v in c["baked"].items()]
+        if tag == "bake" and a.edit_basis_count:
+            lines += ["", "[basis]", "count = %d" % a.edit_basis_count]
         with open(cfg, "w") as f:
             f.write("\n".join(lines) + "\n")
         return cfg
@@ -334,7 +336,7 @@ class Edits:
         return mitsuba_check.read_exr(exr)
 
     def relit(self, seed, alphas, bin_dir):
-        cfg = self.config(seed, self.args.spp, "bake")
+        cfg = self.config(seed, self.args.edit_bake_spp or self.args.spp, "bake")
         run_json([os.path.join(bin_dir, "bake"), cfg, "--json"])
         out = {}
         for alpha in alphas:
@@ -365,11 +367,12 @@ def edit_comparison(args, report):
         log("edits: round %d/%d done" % (rnd + 1, args.rounds))
     c = EDIT_CASE
     print("\n(c) Edits: %s (GGX, kd %s, ks %g) baked at alpha %g under %s, %dx%d, %d spp, %d "
-          "reflections; relit to each alpha against `reference` rendered at that alpha (a fresh "
-          "render, same spp); truth: `reference` at %d spp; rel. L2 RMS over %d seeds" % (
+          "reflections, N_b %s; relit to each alpha against `reference` rendered at that alpha "
+          "(a fresh render, %d spp); truth: `reference` at %d spp; rel. L2 RMS over %d seeds" % (
               c["material"], c["baked"]["kd"], c["baked"]["ks"], c["baked"]["alpha"],
-              c["environment"], args.edit_size, args.edit_size, args.spp, args.reflections,
-              args.edit_gt_spp, args.rounds))
+              c["environment"], args.edit_size, args.edit_size, args.edit_bake_spp or args.spp,
+              args.reflections, args.edit_basis_count or "default", args.spp, args.edit_gt_spp,
+              args.rounds))
     print("  %-8s %7s %12s %12s %16s" % ("binaries", "alpha", "fresh %", "relit %",
                                          "relit / fresh"))
     rms = {k: float(np.sqrt(np.mean(np.square(v)))) for k, v in err.items()}
@@ -378,6 +381,8 @@ def edit_comparison(args, report):
             f, r = rms[(b, "fresh", alpha)], rms[(b, "relit", alpha)]
             print("  %-8s %7g %12.3f %12.3f %15.2fx" % (b, alpha, 100 * f, 100 * r, r / f))
     report["edits"] = dict(case=EDIT_CASE, alphas=alphas, size=args.edit_size, spp=args.spp,
+                           bake_spp=args.edit_bake_spp or args.spp,
+                           basis_count=args.edit_basis_count,
                            gt_spp=args.edit_gt_spp, rounds=args.rounds,
                            rel_l2_rms={"%s %s %g" % k: v for k, v in rms.items()},
                            rounds_raw={"%s %s %g" % k: v for k, v in err.items()})
@@ -596,6 +601,11 @@ def main():
                     "comparison's truth (default 4096)")
     ap.add_argument("--edit-truth-bin", help="folder of the `reference` that renders the edit "
                     "comparison's truth (default --bin; its truths are cached per binary)")
+    ap.add_argument("--edit-basis-count", type=int, help="basis BRDFs of the baked sphere "
+                    "(N_b; default: the baker's, 8 for GGX)")
+    ap.add_argument("--edit-bake-spp", type=int, help="samples per pixel of the edit "
+                    "comparison's bakes (default --spp); a high count leaves the relit error "
+                    "of the basis alone (its bias)")
     ap.add_argument("--edit-alphas", default="0.03,0.06,0.12,0.25,0.5",
                     help="roughnesses the sphere is relit to (comma-separated)")
     ap.add_argument("--json", help="also write every figure (per round) to this file "
