@@ -112,7 +112,7 @@ mod x86 {
 
     use half::f16;
 
-    use super::{tiles_portable, Column, PREFETCH_LINES};
+    use crate::contract::{tiles_portable, Column, PREFETCH_LINES};
 
     /// Pixels per tile: two registers per channel, so six independent add chains hide the
     /// add latency.
