@@ -84,6 +84,10 @@ pub struct Relighter {
     meta: PixelBakeMeta,
     materials: Materials,
     kernel: Kernel,
+    /// Per group, where each band of [`BAND_ROWS`] rows starts in its pixel list (one entry
+    /// per band, then the list's length): found once here rather than by binary search in
+    /// every frame.
+    band_starts: Vec<Vec<usize>>,
 }
 
 impl Relighter {
@@ -130,6 +134,7 @@ impl Relighter {
         let nslots: usize = meta.materials.iter().map(|m| m.slots.len()).sum();
         let (w, h) = (meta.width as usize, meta.height as usize);
         file.tensor(names::EMISSION)?.require_shape(&[h, w, 3])?;
+        let mut band_starts = Vec::with_capacity(meta.groups.len());
         for (g, gm) in meta.groups.iter().enumerate() {
             let Some(m) = meta.materials.get(gm.material as usize) else {
                 return Err(schema(format!(
@@ -168,12 +173,19 @@ impl Relighter {
                     "group {g} has a pixel index outside the image"
                 )));
             }
-            // Rendering finds each band's pixels by binary search.
+            // Rendering takes each band's pixels as one run of the list.
             if indices.windows(2).any(|ab| ab[0] >= ab[1]) {
                 return Err(schema(format!(
                     "group {g}: pixel indices are not strictly ascending"
                 )));
             }
+            let band = w * BAND_ROWS;
+            band_starts.push(
+                (0..h.div_ceil(BAND_ROWS))
+                    .map(|b| indices.partition_point(|&i| (i as usize) < b * band))
+                    .chain([p])
+                    .collect(),
+            );
             let t = file.tensor(&names::transfer(g))?;
             t.require_shape(&[expect, p])?;
             let stored = match meta.precision {
@@ -200,6 +212,7 @@ impl Relighter {
             meta,
             materials,
             kernel: Kernel::Auto,
+            band_starts,
         })
     }
 
@@ -315,9 +328,8 @@ impl Relighter {
                     flat.copy_from_slice(e);
                 }
                 let mut acc: [Vec<f32>; 3] = Default::default();
-                for g in &groups {
-                    let first = g.pixels.partition_point(|&p| p < lo);
-                    let last = g.pixels.partition_point(|&p| p < hi);
+                for (g, starts) in groups.iter().zip(&self.band_starts) {
+                    let (first, last) = (starts[b], starts[b + 1]);
                     let mut i = first;
                     while i < last {
                         let end = (i + BLOCK).min(last);
@@ -359,8 +371,9 @@ fn add_pixel((o, ((r, g), b)): (&mut [f32; 3], ((&f32, &f32), &f32))) {
 
 /// Image rows per parallel band.
 const BAND_ROWS: usize = 8;
-/// Pixels contracted together: their three accumulators stay in L1 while the columns stream.
-const BLOCK: usize = 256;
+/// Pixels contracted together: their three accumulators (12 KB) stay in L1 while the columns
+/// stream, each in runs of a block's pixels.
+const BLOCK: usize = 1024;
 
 /// One group's data for a frame.
 struct GroupFrame<'a> {
