@@ -58,6 +58,27 @@ pub(crate) fn tiles_f16(
     tiles_portable(cols, i0, 0, init, acc, f16::to_f32);
 }
 
+/// Adds pixels `k..k + out.len()` of a block's channel-major sums `acc` to a stretch of
+/// consecutive image pixels; `simd` allows the vector code (the same additions).
+pub(crate) fn add_run(out: &mut [[f32; 3]], acc: &[Vec<f32>; 3], k: usize, simd: bool) {
+    let n = out.len();
+    let [a0, a1, a2] = acc.each_ref().map(|a| &a[k..k + n]);
+    #[cfg(target_arch = "x86_64")]
+    if simd && std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports AVX2 (checked just above).
+        unsafe { x86::add_run(out, a0, a1, a2) };
+        return;
+    }
+    let _ = simd;
+    add_run_portable(out, a0, a1, a2);
+}
+
+fn add_run_portable(out: &mut [[f32; 3]], a0: &[f32], a1: &[f32], a2: &[f32]) {
+    for (o, ((r, g), b)) in out.iter_mut().zip(a0.iter().zip(a1).zip(a2)) {
+        *o = [o[0] + r, o[1] + g, o[2] + b];
+    }
+}
+
 /// The portable kernel from pixel `from` of the block on (the vector kernels leave it the
 /// pixels past their last whole tile).
 #[inline(always)]
@@ -107,12 +128,13 @@ fn tiles_portable<T: Copy>(
 mod x86 {
     use std::arch::x86_64::{
         __m128i, __m256, _mm256_add_ps, _mm256_cvtph_ps, _mm256_loadu_ps, _mm256_mul_ps,
-        _mm256_set1_ps, _mm256_storeu_ps, _mm_loadu_si128, _mm_prefetch, _MM_HINT_T0,
+        _mm256_permute2f128_ps, _mm256_set1_ps, _mm256_shuffle_ps, _mm256_storeu_ps,
+        _mm_loadu_si128, _mm_prefetch, _MM_HINT_T0,
     };
 
     use half::f16;
 
-    use crate::contract::{tiles_portable, Column, PREFETCH_LINES};
+    use crate::contract::{add_run_portable, tiles_portable, Column, PREFETCH_LINES};
 
     /// Pixels per tile: two registers per channel, so six independent add chains hide the
     /// add latency.
@@ -157,6 +179,39 @@ mod x86 {
             ]
         });
         tiles_portable(cols, i0, from, init, acc, f16::to_f32);
+    }
+
+    /// [`crate::contract::add_run`] eight pixels at a time: the three channel vectors are
+    /// interleaved into the image's layout (r g b r g b ...) by shuffles, then added to it.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn add_run(out: &mut [[f32; 3]], a0: &[f32], a1: &[f32], a2: &[f32]) {
+        let full = out.len() / 8 * 8;
+        for (k, o) in out[..full].chunks_exact_mut(8).enumerate() {
+            let (x, y, z) = (
+                _mm256_loadu_ps(a0[8 * k..8 * k + 8].as_ptr()),
+                _mm256_loadu_ps(a1[8 * k..8 * k + 8].as_ptr()),
+                _mm256_loadu_ps(a2[8 * k..8 * k + 8].as_ptr()),
+            );
+            // Per 128-bit half (pixels 0-3 and 4-7), then the halves recombined.
+            let xy = _mm256_shuffle_ps::<0b10_00_10_00>(x, y); // x0 x2 y0 y2
+            let yz = _mm256_shuffle_ps::<0b11_01_11_01>(y, z); // y1 y3 z1 z3
+            let zx = _mm256_shuffle_ps::<0b11_01_10_00>(z, x); // z0 z2 x1 x3
+            let r03 = _mm256_shuffle_ps::<0b10_00_10_00>(xy, zx); // x0 y0 z0 x1
+            let r14 = _mm256_shuffle_ps::<0b11_01_10_00>(yz, xy); // y1 z1 x2 y2
+            let r25 = _mm256_shuffle_ps::<0b11_01_11_01>(zx, yz); // z2 x3 y3 z3
+            let m = [
+                _mm256_permute2f128_ps::<0x20>(r03, r14),
+                _mm256_permute2f128_ps::<0x30>(r25, r03),
+                _mm256_permute2f128_ps::<0x31>(r14, r25),
+            ];
+            let flat = o.as_flattened_mut();
+            for (j, mj) in m.into_iter().enumerate() {
+                let dst = &mut flat[8 * j..8 * j + 8];
+                let sum = _mm256_add_ps(_mm256_loadu_ps(dst.as_ptr()), mj);
+                _mm256_storeu_ps(dst.as_mut_ptr(), sum);
+            }
+        }
+        add_run_portable(&mut out[full..], &a0[full..], &a1[full..], &a2[full..]);
     }
 
     /// The whole tiles of the block; returns where the portable tail starts.
