@@ -179,7 +179,7 @@ impl Relighter {
                     "group {g}: pixel indices are not strictly ascending"
                 )));
             }
-            let band = w * BAND_ROWS;
+            let band = band_pixels(w);
             band_starts.push(
                 (0..h.div_ceil(BAND_ROWS))
                     .map(|b| indices.partition_point(|&i| (i as usize) < b * band))
@@ -314,7 +314,7 @@ impl Relighter {
         let (width, height) = (self.meta.width as usize, self.meta.height as usize);
         let mut pixels = vec![[0.0f32; 3]; width * height];
         let simd = self.kernel == Kernel::Auto;
-        let band = (width * BAND_ROWS).max(1);
+        let band = band_pixels(width);
         pixels
             .par_chunks_mut(band)
             .enumerate()
@@ -378,6 +378,12 @@ fn run_len(ids: &[u32]) -> usize {
 
 /// Image rows per parallel band.
 const BAND_ROWS: usize = 8;
+
+/// Pixels per band of an image `width` pixels wide (at least one, so an empty image still
+/// cuts into bands); `render` and the band starts found at open must agree on it.
+fn band_pixels(width: usize) -> usize {
+    (width * BAND_ROWS).max(1)
+}
 /// Pixels contracted together: their three accumulators (12 KB) stay in L1 while the columns
 /// stream, each in runs of a block's pixels.
 const BLOCK: usize = 1024;
@@ -390,7 +396,8 @@ struct GroupFrame<'a> {
 }
 
 /// A group's stored columns with a nonzero weight (one per stored element, or per low-rank
-/// component), each with its weight per output channel; column i holds pixel i's values.
+/// component), each with its weight per output channel; a column's value i is the group's
+/// pixel i's.
 enum Columns<'a> {
     /// f32 columns and the radiance every pixel starts from (the low-rank mean's, else 0).
     F32(Vec<Column<'a, f32>>, [f32; 3]),
