@@ -1,11 +1,11 @@
 //! The BVH against brute force (random and structured scenes), watertightness at shared edges
-//! and vertices of closed meshes, rays starting next to a wall, and the AVX2 path against the
-//! portable one.
+//! and vertices of closed meshes, rays starting next to a wall, the AVX2 path against the
+//! portable one, and streams against single queries.
 
 use glam::{Vec2, Vec3};
 use obvhs::triangle::Triangle;
 
-use super::{brute_force_intersect, Accel, Simd};
+use super::{brute_force_intersect, Accel, Found, Ray, Simd};
 use crate::sampling::{uniform_sphere, Rng};
 
 fn tri(a: Vec3, b: Vec3, c: Vec3) -> Triangle {
@@ -487,4 +487,75 @@ fn sixteen_lane_leaf_test_equals_the_one_triangle_test() {
         hits > 8000 && edges > 8000,
         "{hits} hits, {edges} edge rays"
     );
+}
+
+/// A stream's answers are each ray's single query's, bit for bit, on every SIMD path: the
+/// walks take turns, but each visits its nodes in its own order. Odd lengths, one ray and none
+/// included (the last walk runs alone), finite tmax and tmin (culling by the ray's interval).
+#[test]
+fn streams_answer_as_single_queries_bit_for_bit() {
+    let top = Accel::from_triangles(&[]).simd;
+    let paths: Vec<Simd> = [Simd::Portable, Simd::Avx2, Simd::Avx512]
+        .into_iter()
+        .filter(|&p| match p {
+            Simd::Portable => true,
+            Simd::Avx2 => top != Simd::Portable,
+            Simd::Avx512 => top == Simd::Avx512,
+        })
+        .collect();
+    let mut rng = Rng::for_sample(3, 1, 4);
+    let mut tris = random_triangles(1500, &mut rng);
+    tris.extend(triangles(&grid_cube(4)));
+    tris.extend(triangles(&sphere(3, Vec3::new(0.5, 0.2, -0.3))));
+    let accel = Accel::from_triangles(&tris);
+    let rays: Vec<Ray> = (0..2001)
+        .map(|i| {
+            let origin = rand3(&mut rng) * 6.0 - 3.0;
+            let dir = uniform_sphere(rng.next_vec2());
+            let (tmin, tmax) = match i % 3 {
+                0 => (0.0, f32::INFINITY),
+                1 => (0.0, 2.0 * rng.next_f32()),
+                _ => (rng.next_f32(), 1.0 + 3.0 * rng.next_f32()),
+            };
+            Ray {
+                origin,
+                dir,
+                tmin,
+                tmax,
+            }
+        })
+        .collect();
+    let bits = |h: Found| h.map(|h| (h.0, h.1.to_bits(), h.2.to_bits(), h.3.to_bits()));
+    let mut hits = 0;
+    for &path in &paths {
+        for n in [0, 1, 2, 3, rays.len()] {
+            let rays = &rays[..n];
+            let mut closest = vec![None; n];
+            let mut any = vec![None; n];
+            accel.stream::<false>(rays, path, |i, f| closest[i] = Some(bits(f)));
+            accel.stream::<true>(rays, path, |i, f| any[i] = Some(f.is_some()));
+            for (i, r) in rays.iter().enumerate() {
+                let single = accel.query::<false>(r.origin, r.dir, r.tmin, r.tmax, path);
+                assert_eq!(closest[i], Some(bits(single)), "{path:?}, ray {i} of {n}");
+                let blocked = accel.query::<true>(r.origin, r.dir, r.tmin, r.tmax, path);
+                assert_eq!(any[i], Some(blocked.is_some()), "{path:?}, ray {i} of {n}");
+                hits += single.is_some() as usize;
+            }
+        }
+    }
+    // The rays must both hit and miss for the comparison to mean something.
+    assert!(hits > 500 && hits < 1500 * paths.len(), "{hits} hits");
+    // The public wrappers and the empty tree.
+    let mut h = vec![None; 5];
+    let mut b = vec![true; 5];
+    accel.intersect_stream(&rays[..5], &mut h);
+    accel.occluded_stream(&rays[..5], &mut b);
+    for (i, r) in rays[..5].iter().enumerate() {
+        assert_eq!(h[i], accel.intersect(r.origin, r.dir, r.tmin, r.tmax));
+        assert_eq!(b[i], accel.occluded(r.origin, r.dir, r.tmin, r.tmax));
+    }
+    let empty = Accel::from_triangles(&[]);
+    empty.intersect_stream(&rays[..5], &mut h);
+    empty.occluded_stream(&rays[..5], &mut b);
+    assert!(h.iter().all(Option::is_none) && b.iter().all(|&b| !b));
 }
