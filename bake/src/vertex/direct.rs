@@ -9,7 +9,7 @@ use prt_formats::lighting::cubemap::{texel_centre_direction, texel_index, Face};
 use prt_formats::lighting::{HaarCube, LightingError, SparseVector};
 use prt_formats::vertex::{cube_len, DIRECT_CUBE, VISIBILITY_CUBE};
 
-use crate::accel::Accel;
+use crate::accel::{Accel, Ray};
 
 use super::error::VertexError;
 use super::frame::VertexFrame;
@@ -62,17 +62,24 @@ impl DirectCube {
         let mut t0 = vec![0.0f32; rows * T0_TEXELS];
         let mut visible = [0u16; VIS_TEXELS];
         let mut u = [0.0f32; MAX_SHADING_RANK];
-        let mut rays = 0u64;
-        for (t, &(d, vis)) in self.texels.iter().enumerate() {
+        // The texels above the horizon and their shadow rays, traced as one stream (the rays
+        // share an origin; several in flight hide the tree's memory waits).
+        let (above, rays): (Vec<u32>, Vec<Ray>) = self
+            .texels
+            .iter()
+            .enumerate()
+            .filter(|(_, (d, _))| d.dot(frame.n) > 0.0)
+            .map(|(t, &(d, _))| (t as u32, Ray::new(frame.origin, d)))
+            .unzip();
+        let mut blocked = vec![false; rays.len()];
+        accel.occluded_stream(&rays, &mut blocked);
+        for (k, &t) in above.iter().enumerate() {
+            if blocked[k] {
+                continue;
+            }
+            let (t, d) = (t as usize, rays[k].dir);
             let cos = d.dot(frame.n);
-            if cos <= 0.0 {
-                continue;
-            }
-            rays += 1;
-            if accel.occluded(frame.origin, d, 0.0, f32::INFINITY) {
-                continue;
-            }
-            visible[vis as usize] += 1;
+            visible[self.texels[t].1 as usize] += 1;
             if let Some(b) = shading {
                 b.u_i_row(frame.to_local(d).to_array(), &mut u);
                 for (k, uk) in u[..ri].iter().enumerate() {
@@ -81,6 +88,7 @@ impl DirectCube {
             }
             t0[ri * T0_TEXELS + t] = cos;
         }
+        let rays = rays.len() as u64;
         let per = (VIS_BLOCK * VIS_BLOCK) as f32;
         let visibility = visible.iter().map(|&n| n as f32 / per).collect();
         (t0, rows, visibility, rays)
