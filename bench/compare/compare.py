@@ -483,7 +483,7 @@ def ray_comparison(args, report):
           "default build quality); %d rounds interleaved, medians; rays: %s/<scene>-rays.f32"
           % (embree_version(), embreex.__version__, args.embree_robust, args.rounds,
              os.path.relpath(folder, ROOT)))
-    print("  %-8s %9s %-10s %7s %13s %15s %12s" % ("scene", "triangles", "query", "threads",
+    print("  %-8s %9s %-16s %7s %13s %15s %12s" % ("scene", "triangles", "query", "threads",
                                                     "ours Mrays/s", "Embree Mrays/s",
                                                     "ours/Embree"))
     report["rays"] = []
@@ -503,16 +503,20 @@ def ray_comparison(args, report):
             tracers["before"] = Ours(os.path.join(args.bin_before, "bench"), folder, name)
         keys = [(q, t) for q in ("closest", "occlusion")
                 for t in sorted({1, threads_all})]
-        times = {k: dict(ours=[], embree=[], before=[]) for k in keys}
+        # Our streams (several rays in flight, the same answers) against Embree's one ray at
+        # a time, the only query embreex has; a "before" binary without them shows none.
+        ours_keys = keys + [(q + "-stream", t) for q, t in keys]
+        times = {k: dict(ours=[], embree=[], before=[]) for k in ours_keys}
         checks = {}
         sides = list(tracers) + ["embree"]
         for rnd in range(args.rounds):
             for side in (sides if rnd % 2 == 0 else sides[::-1]):
                 if side != "embree":
                     res = tracers[side].round()
-                    for k in keys:
-                        times[k][side].append(res[k]["seconds"])
-                        checks[(k, side)] = res[k]["checksum"]
+                    for k in ours_keys:
+                        if k in res:
+                            times[k][side].append(res[k]["seconds"])
+                            checks[(k, side)] = res[k]["checksum"]
                 else:
                     for k in keys:
                         res = emb.pass_(origins, dirs, k[0], k[1], pool)
@@ -522,22 +526,23 @@ def ray_comparison(args, report):
             t.close()
         n = len(rays)
         rows = []
-        for k in keys:
-            to, te = median(times[k]["ours"]), median(times[k]["embree"])
+        for k in ours_keys:
+            base = (k[0].replace("-stream", ""), k[1])
+            to, te = median(times[k]["ours"]), median(times[base]["embree"])
             before = ""
-            if args.bin_before:
+            if times[k]["before"]:
                 tb = median(times[k]["before"])
                 before = "   before: %.2f Mrays/s, %.2fx Embree" % (n / tb / 1e6, te / tb)
-            print("  %-8s %9d %-10s %7d %13.2f %15.2f %11.2fx%s" % (
+            print("  %-8s %9d %-16s %7d %13.2f %15.2f %11.2fx%s" % (
                 name, m["triangles"], k[0], k[1], n / to / 1e6, n / te / 1e6, te / to, before))
             rows.append(dict(query=k[0], threads=k[1], ours_s=times[k]["ours"],
-                             embree_s=times[k]["embree"], ratio=te / to,
+                             embree_s=times[base]["embree"], ratio=te / to,
                              before_s=times[k]["before"],
                              ours_checksum=checks[(k, "ours")],
-                             embree_checksum=checks[(k, "embree")]))
+                             embree_checksum=checks[(base, "embree")]))
         # Our timed passes must have found exactly the dumped hits (same code, same rays).
-        dump_ok = all(checks[(k, "ours")] == m["closest"] if k[0] == "closest"
-                      else checks[(k, "ours")]["hits"] == m["occluded"] for k in keys)
+        dump_ok = all(checks[(k, "ours")] == m["closest"] if k[0].startswith("closest")
+                      else checks[(k, "ours")]["hits"] == m["occluded"] for k in ours_keys)
         print("  %-8s %d rays: same triangle %.4f %%, same hit within tolerance %.4f %%, "
               "hit/miss differ on %d, occlusion equal %.4f %%; Embree BVH build %.2f s; "
               "timed hits = dump's: %s" % (
@@ -547,7 +552,8 @@ def ray_comparison(args, report):
         report["rays"].append(dict(scene=name, triangles=m["triangles"], rays=n,
                                    agreement=agree, build_embree_s=emb.build_s, rows=rows))
     print("    (ours/Embree: our throughput over Embree's, > 1 = ours faster; 1 thread and "
-          "%d threads on this machine)" % threads_all)
+          "%d threads on this machine; a -stream row is our stream query against Embree's "
+          "one-ray query of the same kind)" % threads_all)
 
 
 def embree_version():

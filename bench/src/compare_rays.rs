@@ -29,7 +29,7 @@ use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use glam::Vec3;
-use prt_bake::accel::Accel;
+use prt_bake::accel::{Accel, Ray};
 use prt_bake::brdf::{cosine_hemisphere, BrdfParams};
 use prt_bake::sampling::Rng;
 use prt_bake::scene::Scene;
@@ -503,9 +503,20 @@ pub struct Timed {
     pub checksum: Checksum,
 }
 
-/// One timed pass of `query` ("closest" or "occlusion") over all rays in `pool`.
-fn timed_pass(pool: &rayon::ThreadPool, accel: &Accel, rays: &[[f32; 6]], query: &str) -> Timed {
-    let closest = query == "closest";
+/// One timed pass of `query` (one of `QUERIES`) over all rays in `pool`.
+/// The timed queries: one ray at a time (`Accel::intersect`, `Accel::occluded`, what Embree's
+/// `rtcIntersect1` / `rtcOccluded1` answer) and as streams (`Accel::intersect_stream`,
+/// `Accel::occluded_stream`: the same answers, several rays in flight).
+const QUERIES: [&str; 4] = ["closest", "occlusion", "closest-stream", "occlusion-stream"];
+
+fn timed_pass(
+    pool: &rayon::ThreadPool,
+    accel: &Accel,
+    rays: &[[f32; 6]],
+    query: &'static str,
+) -> Timed {
+    let closest = query.starts_with("closest");
+    let stream = query.ends_with("-stream");
     let start = Instant::now();
     let checksum = pool.install(|| {
         rays.par_chunks(CHUNK)
@@ -514,6 +525,28 @@ fn timed_pass(pool: &rayon::ThreadPool, accel: &Accel, rays: &[[f32; 6]], query:
                     hits: 0,
                     triangle_sum: 0,
                 };
+                if stream {
+                    let rays: Vec<Ray> = chunk
+                        .iter()
+                        .map(|r| {
+                            let (o, d) = split(r);
+                            Ray::new(o, d)
+                        })
+                        .collect();
+                    if closest {
+                        let mut hits = vec![None; rays.len()];
+                        accel.intersect_stream(&rays, &mut hits);
+                        for h in hits.iter().flatten() {
+                            c.hits += 1;
+                            c.triangle_sum += h.triangle as u64;
+                        }
+                    } else {
+                        let mut blocked = vec![false; rays.len()];
+                        accel.occluded_stream(&rays, &mut blocked);
+                        c.hits += blocked.iter().filter(|&&b| b).count() as u64;
+                    }
+                    return c;
+                }
                 for r in chunk {
                     let (o, d) = split(r);
                     if closest {
@@ -540,7 +573,7 @@ fn timed_pass(pool: &rayon::ThreadPool, accel: &Accel, rays: &[[f32; 6]], query:
     });
     let seconds = start.elapsed().as_secs_f64();
     Timed {
-        query: if closest { "closest" } else { "occlusion" },
+        query,
         threads: pool.current_num_threads(),
         seconds,
         mrays_per_second: rays.len() as f64 / seconds.max(1e-12) / 1e6,
@@ -562,7 +595,7 @@ fn time(dir: &Path, name: &str, rounds: usize, serve: bool) -> Result<()> {
     }
     let round = || -> Vec<Timed> {
         let mut out = Vec::new();
-        for query in ["closest", "occlusion"] {
+        for query in QUERIES {
             for pool in &pools {
                 out.push(timed_pass(pool, &loaded.accel, &loaded.rays, query));
             }
