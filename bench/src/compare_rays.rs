@@ -503,12 +503,12 @@ pub struct Timed {
     pub checksum: Checksum,
 }
 
-/// One timed pass of `query` (one of `QUERIES`) over all rays in `pool`.
 /// The timed queries: one ray at a time (`Accel::intersect`, `Accel::occluded`, what Embree's
 /// `rtcIntersect1` / `rtcOccluded1` answer) and as streams (`Accel::intersect_stream`,
 /// `Accel::occluded_stream`: the same answers, several rays in flight).
 const QUERIES: [&str; 4] = ["closest", "occlusion", "closest-stream", "occlusion-stream"];
 
+/// One timed pass of `query` (one of `QUERIES`) over all rays in `pool`.
 fn timed_pass(
     pool: &rayon::ThreadPool,
     accel: &Accel,
