@@ -1,32 +1,35 @@
-//! Our BVH8 layout, decompressed from obvhs' compressed wide BVH (CWBVH, Ylitie et al. 2017)
-//! at build: obvhs builds the tree; traversal reads this.
+//! Our BVH8 layout, written from the collapsed tree ([`super::collapse`]) at build; traversal
+//! reads this.
 //!
-//! Why decompress: the CWBVH stores each child box as 8-bit offsets in a per-node grid, so
-//! every node visit paid a dequantisation (u8 to float, scale, offset) and a bit-twiddling
-//! decode of the child order before the slab test. Here a node holds its eight child boxes as
-//! plain f32 in structure-of-arrays order (one 8-lane load per slab plane) and one reference
-//! per inner child. A node's leaf children (up to 8 of up to 3 triangles) are not referenced
-//! one by one: all their triangles sit together as nine rows (vertex, axis) of one value per
-//! triangle, each tagged with its leaf's slot, so the leaves a ray hits are tested in one
-//! sixteen-lane pass ([`super::triangle::intersect16`]) and never pushed on the stack: 36 bytes
-//! per triangle plus its 4-byte id, against 48 before. Nodes cost more memory (256 bytes
-//! instead of 80).
+//! A node holds its eight child boxes as plain f32 in structure-of-arrays order (one 8-lane
+//! load per slab plane) and one reference per inner child. (obvhs' compressed wide BVH, which
+//! this replaced, stored each box as 8-bit offsets in a per-node grid: every node visit paid a
+//! dequantisation and a bit-twiddling decode of the child order before the slab test.) A
+//! node's leaf children are not referenced one by one: all their triangles (up to 24) sit
+//! together as nine rows (vertex, axis) of one value per triangle, each tagged with its leaf's
+//! slot, so the leaves a ray hits are tested in sixteen-lane passes
+//! ([`super::triangle::intersect16`]) and never pushed on the stack: 36 bytes per triangle plus
+//! its 4-byte id. A node is 256 bytes, four cache lines.
 //!
-//! Conservative boxes: each dequantised CWBVH box grows by 1/64 of its grid cell on every side
-//! (computed in f64, then rounded outwards to f32), more than the rounding of the slab
-//! distances and of the triangle test's t, so a triangle lying in a box face (axis-aligned
-//! walls: zero-thickness boxes) is never culled by a rounding; see `traverse`.
+//! Conservative boxes: obvhs' boxes are tight in f32, except that a pre-split triangle's boxes
+//! come from clipping its edges, rounded either way. Each box grows on every side by 2^-20 of
+//! its coordinates' magnitude (8 ulp) plus 2^-20 of the scene's extent: more than that
+//! clipping's rounding, and than the rounding of the slab distances and of the triangle test's
+//! t, so a triangle lying in a box face (axis-aligned walls: zero-thickness boxes) is never
+//! culled by a rounding; see `traverse`. On a million-triangle scene that is a thousandth of a
+//! triangle's size: no measurable extra culling work.
 
-use obvhs::cwbvh::{node::CwBvhNode, CwBvh};
+use super::collapse::{Collapsed, SlotKind, Wide};
 
-/// Leaf triangles per node at most: obvhs' CWBVH gives a node up to 24 (8 leaves of up to 3).
+/// Leaf triangles per node at most (what fits the node's 256 bytes); the collapse keeps to it.
 pub(super) const NODE_TRIANGLES: usize = 24;
 /// Triangle references must stay below this (the rows' offsets are 9 times them, in usize).
 const TRIANGLE_LIMIT: usize = 1 << 29;
 /// Child reference of an empty slot (its box is empty, so it is never hit).
 pub(super) const EMPTY: u32 = u32::MAX;
-/// Child boxes grow by this many quantization cells on each side.
-const BOX_PAD: f64 = 1.0 / 64.0;
+/// Child boxes grow on each side by this fraction of their coordinates' magnitude (8 ulp)
+/// plus this fraction of the scene's extent.
+const BOX_PAD: f32 = 1.0 / (1 << 20) as f32;
 
 /// One node: its children's boxes and references. 256 bytes, four cache lines.
 #[derive(Clone, Copy, Debug)]
@@ -61,22 +64,23 @@ pub(super) struct Bvh8 {
 }
 
 impl Bvh8 {
-    /// Converts obvhs' CWBVH over `tris` (scene triangles, indexed by its primitive indices);
-    /// node i here is CWBVH node i.
+    /// Lays out the collapsed tree over `tris` (scene triangles, indexed by its primitives);
+    /// node i here is its node i.
     ///
     /// Panics past 2^29 triangle references (a scene far beyond what fits in memory here).
-    pub fn from_cwbvh(bvh: &CwBvh, tris: &[[glam::Vec3A; 3]]) -> Bvh8 {
+    pub fn from_collapsed(tree: &Collapsed, tris: &[[glam::Vec3A; 3]]) -> Bvh8 {
         assert!(
-            bvh.primitive_indices.len() < TRIANGLE_LIMIT,
+            tree.primitives.len() < TRIANGLE_LIMIT,
             "too many triangles for the BVH's leaf references"
         );
         let mut out = Bvh8 {
-            nodes: Vec::with_capacity(bvh.nodes.len()),
-            rows: Vec::with_capacity(9 * bvh.primitive_indices.len() + 4),
-            ids: Vec::with_capacity(bvh.primitive_indices.len()),
+            nodes: Vec::with_capacity(tree.nodes.len()),
+            rows: Vec::with_capacity(9 * tree.primitives.len() + ROWS_PAD),
+            ids: Vec::with_capacity(tree.primitives.len()),
         };
-        for n in &bvh.nodes {
-            let node = convert(n, bvh, tris, &mut out);
+        let pad = Pad::new(tree);
+        for wide in &tree.nodes {
+            let node = convert(wide, tree, tris, &pad, &mut out);
             out.nodes.push(node);
         }
         out.rows.extend([0.0; ROWS_PAD]);
@@ -89,15 +93,48 @@ impl Bvh8 {
 /// 15 values past the node's 9 n.
 pub(super) const ROWS_PAD: usize = 16;
 
-fn convert(n: &CwBvhNode, bvh: &CwBvh, tris: &[[glam::Vec3A; 3]], out: &mut Bvh8) -> Node {
+/// How much a box grows on each side (see the module's notes).
+struct Pad {
+    /// The scene's largest extent, times `BOX_PAD`.
+    floor: f32,
+}
+
+impl Pad {
+    fn new(tree: &Collapsed) -> Pad {
+        let extent = tree
+            .nodes
+            .first()
+            .into_iter()
+            .flat_map(|n| n.slots.iter().flatten())
+            .map(|s| (s.bounds.max - s.bounds.min).max_element())
+            .fold(0.0f32, f32::max);
+        Pad {
+            floor: extent * BOX_PAD,
+        }
+    }
+
+    /// `lo` and `hi` of one axis, grown by `BOX_PAD` of their magnitude plus `floor`.
+    fn grow(&self, lo: f32, hi: f32) -> (f32, f32) {
+        let d = lo.abs().max(hi.abs()) * BOX_PAD + self.floor;
+        (lo - d, hi + d)
+    }
+}
+
+fn convert(
+    wide: &Wide,
+    tree: &Collapsed,
+    tris: &[[glam::Vec3A; 3]],
+    pad: &Pad,
+    out: &mut Bvh8,
+) -> Node {
     let mut node = Node {
         bounds: [
             [f32::INFINITY; 8],
             [f32::NEG_INFINITY; 8],
-            [0.0; 8],
-            [0.0; 8],
-            [0.0; 8],
-            [0.0; 8],
+            [f32::INFINITY; 8],
+            [f32::NEG_INFINITY; 8],
+            [f32::INFINITY; 8],
+            [f32::NEG_INFINITY; 8],
         ],
         child: [EMPTY; 8],
         lane_slot: [0; NODE_TRIANGLES],
@@ -107,42 +144,27 @@ fn convert(n: &CwBvhNode, bvh: &CwBvh, tris: &[[glam::Vec3A; 3]], out: &mut Bvh8
         _pad: [0; 2],
     };
     let mut ids = Vec::with_capacity(NODE_TRIANGLES);
-    for row in [2, 4] {
-        node.bounds[row] = [f32::INFINITY; 8];
-        node.bounds[row + 1] = [f32::NEG_INFINITY; 8];
-    }
-    let e = n.compute_extent().to_array();
-    let p = n.p.to_array();
-    let q = [
-        (&n.child_min_x, &n.child_max_x),
-        (&n.child_min_y, &n.child_max_y),
-        (&n.child_min_z, &n.child_max_z),
-    ];
-    for i in 0..8 {
-        if n.is_child_empty(i) {
-            continue;
-        }
+    for (i, slot) in wide.slots.iter().enumerate() {
+        let Some(slot) = slot else { continue };
+        let (lo, hi) = (slot.bounds.min.to_array(), slot.bounds.max.to_array());
         for axis in 0..3 {
-            // In f64 (e is a power of two, q < 256: e (q -+ pad) is exact), then rounded outwards.
-            let (e, p) = (e[axis] as f64, p[axis] as f64);
-            let lo = p + e * (q[axis].0[i] as f64 - BOX_PAD);
-            let hi = p + e * (q[axis].1[i] as f64 + BOX_PAD);
-            node.bounds[2 * axis][i] = round_down(lo);
-            node.bounds[2 * axis + 1][i] = round_up(hi);
+            let (l, h) = pad.grow(lo[axis], hi[axis]);
+            node.bounds[2 * axis][i] = l;
+            node.bounds[2 * axis + 1][i] = h;
         }
-        if n.is_leaf(i) {
-            let (start, count) = n.child_primitives(i);
-            for &id in &bvh.primitive_indices[start as usize..(start + count) as usize] {
-                assert!(
-                    ids.len() < NODE_TRIANGLES,
-                    "a CWBVH node with more than 24 leaf triangles"
-                );
-                node.lane_slot[ids.len()] = 1 << i;
-                ids.push(id);
+        match slot.kind {
+            SlotKind::Leaf { start, count } => {
+                for &id in &tree.primitives[start as usize..(start + count) as usize] {
+                    assert!(
+                        ids.len() < NODE_TRIANGLES,
+                        "a collapsed node with more than {NODE_TRIANGLES} leaf triangles"
+                    );
+                    node.lane_slot[ids.len()] = 1 << i;
+                    ids.push(id);
+                }
+                node.leaves |= 1 << i;
             }
-            node.leaves |= 1 << i;
-        } else {
-            node.child[i] = n.child_node_index(i);
+            SlotKind::Inner(c) => node.child[i] = c,
         }
     }
     // Row 3 * vertex + axis: that coordinate of each triangle.
@@ -154,23 +176,4 @@ fn convert(n: &CwBvhNode, bvh: &CwBvh, tris: &[[glam::Vec3A; 3]], out: &mut Bvh8
     out.ids.extend_from_slice(&ids);
     node.count = ids.len() as u8;
     node
-}
-
-/// The largest f32 not above x.
-fn round_down(x: f64) -> f32 {
-    -round_up(-x)
-}
-
-/// The smallest f32 not below x (finite x; an x beyond f32's range gives infinity).
-fn round_up(x: f64) -> f32 {
-    let f = x as f32;
-    if (f as f64) >= x {
-        f
-    } else if f == 0.0 {
-        f32::from_bits(1)
-    } else if f > 0.0 {
-        f32::from_bits(f.to_bits() + 1)
-    } else {
-        f32::from_bits(f.to_bits() - 1)
-    }
 }

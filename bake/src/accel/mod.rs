@@ -1,5 +1,6 @@
-//! Ray queries over all scene triangles. obvhs builds the BVH (a compressed wide BVH8, CWBVH),
-//! which we decompress into our own layout ([`bvh8`]: float child boxes, a node's leaf
+//! Ray queries over all scene triangles. obvhs builds a binary BVH (pre-split, PLOC,
+//! reinsertion); we collapse it into an eight-wide tree ([`collapse`], with a cost model fitted
+//! to our node) and lay that out for traversal ([`bvh8`]: float child boxes, a node's leaf
 //! triangles in rows tested sixteen lanes at once); traversal ([`traverse`]) and the triangle
 //! test ([`triangle`]) are ours, because the ray core must be watertight and as fast as
 //! Embree, and obvhs' traversal is neither (see those modules).
@@ -9,6 +10,7 @@
 //! CPU has it, else the portable code; the same operations, so the same results bit for bit).
 
 mod bvh8;
+mod collapse;
 mod traverse;
 mod triangle;
 
@@ -16,10 +18,14 @@ mod triangle;
 mod tests;
 
 use glam::{Vec2, Vec3, Vec3A};
-use obvhs::{cwbvh::builder::build_cwbvh_from_tris, triangle::Triangle, BvhBuildParams};
+use obvhs::{
+    aabb::Aabb, bvh2::reinsertion::ReinsertionOptimizer, bvh2::Bvh2, ploc::PlocBuilder,
+    splits::split_aabbs_preset, triangle::Triangle, BvhBuildParams,
+};
 
 use crate::scene::Scene;
 use bvh8::Bvh8;
+use collapse::CollapseCost;
 use traverse::{Found, RayNode};
 use triangle::{RayTri, Tri};
 
@@ -98,22 +104,16 @@ impl Accel {
                 simd,
             };
         }
-        // Pre-splitting large triangles (slow_build and up) pays off on scenes mixing big walls
-        // with fine meshes: measured up to 1.7x faster short (occlusion) rays, never slower.
-        // very_slow_build (a full pass of reinsertion instead of a fifth, PLOC's wider search
-        // at the top only) gives the Cornell box a better tree still: 1.8x faster closest hit
-        // and 1.5x faster occlusion (CPU time, interleaved), the same on 100K triangles,
-        // within 5 % on 1M; it builds 1M triangles in about 4 s instead of 2. Reinsertion
-        // ratio 2 measured no better; slow_build with ratio 1 got half the gain.
-        let bvh = build_cwbvh_from_tris(
-            tris,
-            BvhBuildParams::very_slow_build(),
-            &mut std::time::Duration::default(),
-        );
+        Accel::from_bvh2(tris, &build_bvh2(tris), CollapseCost::DEFAULT, simd)
+    }
+
+    /// Collapses `bvh2` (over `tris`) and lays it out.
+    fn from_bvh2(tris: &[Triangle], bvh2: &Bvh2, cost: CollapseCost, simd: Simd) -> Accel {
+        let tree = collapse::collapse(bvh2, cost);
         let vertices: Vec<[Vec3A; 3]> = tris.iter().map(|t| [t.v0, t.v1, t.v2]).collect();
         Accel {
-            bvh: Bvh8::from_cwbvh(&bvh, &vertices),
-            references: bvh.primitive_indices.len(),
+            bvh: Bvh8::from_collapsed(&tree, &vertices),
+            references: tree.primitives.len(),
             simd,
         }
     }
@@ -214,6 +214,43 @@ impl Accel {
         // SAFETY: the portable node test needs no CPU feature.
         unsafe { traverse::traverse::<ANY, traverse::Portable>(&self.bvh, &rn, &rt, tmax) }
     }
+}
+
+/// obvhs' binary tree over `tris` (non-empty), as its CWBVH builder makes it before
+/// collapsing: large triangles pre-split into several boxes, PLOC, then reinsertion.
+///
+/// Pre-splitting large triangles (slow_build and up) pays off on scenes mixing big walls
+/// with fine meshes: measured up to 1.7x faster short (occlusion) rays, never slower.
+/// very_slow_build's settings (a full pass of reinsertion instead of a fifth, PLOC's wider
+/// search at the top only) gave the Cornell box a better tree still: 1.8x faster closest hit
+/// and 1.5x faster occlusion (CPU time, interleaved), the same on 100K triangles, within 5 %
+/// on 1M; it builds 1M triangles in about 4 s instead of 2. Reinsertion ratio 2 measured no
+/// better; slow_build with ratio 1 got half the gain.
+fn build_bvh2(tris: &[Triangle]) -> Bvh2 {
+    let config = BvhBuildParams::very_slow_build();
+    let mut aabbs: Vec<Aabb> = tris.iter().map(|t| t.aabb()).collect();
+    let mut indices: Vec<u32> = (0..tris.len() as u32).collect();
+    let (largest, sum) = aabbs.iter().fold((0.0f32, 0.0f32), |(m, s), b| {
+        let a = b.half_area();
+        (m.max(a), s + a)
+    });
+    split_aabbs_preset(
+        &mut aabbs,
+        &mut indices,
+        tris,
+        sum / tris.len() as f32,
+        largest,
+    );
+    let mut bvh2 = PlocBuilder::with_capacity(aabbs.len()).build(
+        config.ploc_search_distance,
+        &aabbs,
+        indices,
+        config.sort_precision,
+        config.search_depth_threshold,
+    );
+    bvh2.uses_spatial_splits = true;
+    ReinsertionOptimizer::default().run(&mut bvh2, config.reinsertion_batch_ratio, None);
+    bvh2
 }
 
 fn to_hit((triangle, t, b1, b2): (u32, f32, f32, f32)) -> Hit {

@@ -1,11 +1,14 @@
 //! The BVH against brute force (random and structured scenes), watertightness at shared edges
-//! and vertices of closed meshes, rays starting next to a wall, the AVX2 path against the
-//! portable one, and streams against single queries.
+//! and vertices of closed meshes, rays starting next to a wall, the collapse's invariants and
+//! its extreme cost models, the AVX2 path against the portable one, and streams against single
+//! queries.
 
 use glam::{Vec2, Vec3};
 use obvhs::triangle::Triangle;
 
-use super::{brute_force_intersect, Accel, Found, Ray, Simd};
+use super::bvh8::NODE_TRIANGLES;
+use super::collapse::{collapse, CollapseCost, SlotKind};
+use super::{brute_force_intersect, build_bvh2, Accel, Found, Ray, Simd};
 use crate::sampling::{uniform_sphere, Rng};
 
 fn tri(a: Vec3, b: Vec3, c: Vec3) -> Triangle {
@@ -254,7 +257,7 @@ fn closed_meshes_are_watertight() {
 
 /// A ray leaving a wall next to a corner hits the adjacent wall however close (obvhs' own
 /// traversal culled boxes nearer than 1e-4). The cube is small (half size 0.01) so the boxes'
-/// conservative growth (1/64 of a quantization cell) stays below the distances tested.
+/// conservative growth (about 1e-6 of the scene's size) stays below the distances tested.
 #[test]
 fn rays_leaving_next_to_a_corner_hit_the_adjacent_wall() {
     let s = 0.01;
@@ -276,6 +279,106 @@ fn rays_leaving_next_to_a_corner_hit_the_adjacent_wall() {
             h.t
         );
         assert!(accel.occluded(o, d, 0.0, 1.0), "gap {gap}: occlusion");
+    }
+}
+
+/// Random triangles inside a grid cube, and long diagonal slivers across it (pre-split into
+/// several boxes, so they sit in several leaves).
+fn mixed_scene() -> Vec<Triangle> {
+    let mut rng = Rng::for_sample(10, 11, 12);
+    let mut tris = random_triangles(2500, &mut rng);
+    for _ in 0..20 {
+        let (a, b) = (rand3(&mut rng) - 3.0, rand3(&mut rng) + 2.0);
+        tris.push(tri(a, b, b + rand3(&mut rng) * 0.2));
+    }
+    tris.extend(triangles(&grid_cube(3)).iter().map(|t| Triangle {
+        v0: t.v0 * 2.5,
+        v1: t.v1 * 2.5,
+        v2: t.v2 * 2.5,
+    }));
+    tris
+}
+
+/// Cost models at the extremes: one triangle per leaf (the deepest tree), and leaves as big
+/// as a node holds (so whole nodes overflow and leaves must become nodes).
+const EXTREME_COSTS: [CollapseCost; 2] = [
+    CollapseCost {
+        max_leaf: 1,
+        tri_cost: 10.0,
+    },
+    CollapseCost {
+        max_leaf: NODE_TRIANGLES as u32,
+        tri_cost: 1e-3,
+    },
+];
+
+/// The collapse keeps every leaf reference of obvhs' tree exactly once, fits each node's
+/// leaves in one node (at most `NODE_TRIANGLES` triangles), and nests every child's boxes in
+/// its slot's box; under the default cost and the extremes.
+#[test]
+fn collapse_keeps_every_triangle_once_within_node_capacity() {
+    let tris = mixed_scene();
+    let bvh2 = build_bvh2(&tris);
+    assert!(bvh2.primitive_indices.len() > tris.len(), "no pre-split");
+    let mut want = bvh2.primitive_indices.clone();
+    want.sort_unstable();
+    let mut fullest = [0; 3];
+    for (c, cost) in [CollapseCost::DEFAULT]
+        .iter()
+        .chain(&EXTREME_COSTS)
+        .enumerate()
+    {
+        let tree = collapse(&bvh2, *cost);
+        let mut got = tree.primitives.clone();
+        got.sort_unstable();
+        assert_eq!(got, want, "cost {cost:?}: leaf references differ");
+        let mut referenced = vec![0u32; tree.nodes.len()];
+        for node in &tree.nodes {
+            let mut in_node = 0;
+            for slot in node.slots.iter().flatten() {
+                match slot.kind {
+                    SlotKind::Leaf { count, .. } => {
+                        assert!(count <= cost.max_leaf.max(1), "{cost:?}: leaf of {count}");
+                        in_node += count as usize;
+                    }
+                    SlotKind::Inner(i) => {
+                        referenced[i as usize] += 1;
+                        for inner in tree.nodes[i as usize].slots.iter().flatten() {
+                            assert!(slot.bounds.min.cmple(inner.bounds.min).all());
+                            assert!(slot.bounds.max.cmpge(inner.bounds.max).all());
+                        }
+                    }
+                }
+            }
+            assert!(in_node <= NODE_TRIANGLES, "{cost:?}: node of {in_node}");
+            fullest[c] = fullest[c].max(in_node);
+        }
+        assert_eq!(referenced[0], 0);
+        assert!(
+            referenced[1..].iter().all(|&r| r == 1),
+            "{cost:?}: a node referenced other than once"
+        );
+    }
+    // The big-leaf extreme fills nodes to the brim, so its overflow handling was exercised.
+    assert!(fullest[2] > 20, "fullest nodes {fullest:?}");
+}
+
+/// Trees from the extreme cost models answer as brute force does.
+#[test]
+fn extreme_collapses_match_brute_force() {
+    let tris = mixed_scene();
+    let bvh2 = build_bvh2(&tris);
+    let top = Accel::from_triangles(&[]).simd;
+    for cost in EXTREME_COSTS {
+        let accel = Accel::from_bvh2(&tris, &bvh2, cost, top);
+        let mut rng = Rng::for_sample(13, 14, 15);
+        let mut hits = 0;
+        for _ in 0..3000 {
+            let o = rand3(&mut rng) * 8.0 - 4.0;
+            let d = uniform_sphere(rng.next_vec2());
+            hits += check_against_brute_force(&accel, &tris, o, d, f32::INFINITY) as usize;
+        }
+        assert!(hits > 1000, "{cost:?}: only {hits} rays hit");
     }
 }
 
