@@ -83,7 +83,8 @@ pub trait MaterialModel: Sync {
     /// Fills `out` with the slot values of the vertex for directions (wo, wi). `depth` is the
     /// vertex index along the path (0 = the point the camera sees).
     fn eval(&self, surface: &Surface, depth: usize, wo: Vec3, wi: Vec3, out: &mut Slots);
-    /// Samples a continuation direction. Must draw exactly 3 numbers from `rng`.
+    /// Samples a continuation direction. Must draw exactly one point, `rng.next_vec2()`
+    /// (callers keep streams aligned by it).
     fn sample<D: Draw>(&self, surface: &Surface, wo: Vec3, rng: &mut D) -> Option<BrdfSample>;
     /// The density of `sample`.
     fn pdf(&self, surface: &Surface, wo: Vec3, wi: Vec3) -> f32;
@@ -290,7 +291,6 @@ impl<'a> Integrator<'a> {
             let wo_world = -dir;
             let wo = surf.to_local(wo_world);
             let origin = surf.p + surf.ng * self.eps;
-            let u_pick = rng.next_f32();
             let u_area = rng.next_vec2();
             let u_env = rng.next_vec2();
             if wo.z <= 0.0 {
@@ -299,9 +299,7 @@ impl<'a> Integrator<'a> {
             }
 
             // Next-event estimation: area lights.
-            if let Some((ls, tri, bary)) =
-                self.lights.sample_area(self.scene, surf.p, u_pick, u_area)
-            {
+            if let Some((ls, tri, bary)) = self.lights.sample_area(self.scene, surf.p, u_area) {
                 let wi = surf.to_local(ls.wi);
                 if wi.z > 0.0 && ls.wi.dot(surf.ng) > 0.0 {
                     let le = self.emission_at(tri, bary);

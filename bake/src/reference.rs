@@ -56,9 +56,7 @@ impl MaterialModel for TrueBrdfModel<'_> {
 
     #[inline]
     fn sample<D: Draw>(&self, s: &Surface, wo: Vec3, rng: &mut D) -> Option<BrdfSample> {
-        let u_lobe = rng.next_f32();
-        let u = rng.next_vec2();
-        self.brdf_at(s).sample(wo, u, u_lobe)
+        self.brdf_at(s).sample(wo, rng.next_vec2())
     }
 
     #[inline]

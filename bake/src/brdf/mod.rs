@@ -19,6 +19,7 @@
 pub mod blinn_phong;
 pub mod ggx;
 
+use crate::sampling::pick_component;
 use glam::{Vec2, Vec3};
 use serde::{Deserialize, Serialize};
 use std::f32::consts::{FRAC_1_PI, PI};
@@ -215,14 +216,17 @@ impl BrdfParams {
         }
     }
 
-    /// Samples wi given wo, with `u` uniform in [0,1)^2 and `u_lobe` uniform in [0,1) choosing
-    /// the lobe (cosine-weighted diffuse, or the family's specular lobe).
-    pub fn sample(&self, wo: Vec3, u: Vec2, u_lobe: f32) -> Option<BrdfSample> {
+    /// Samples wi given wo, with `u` uniform in [0,1)^2: `u.x` also chooses the lobe
+    /// (cosine-weighted diffuse, or the family's specular lobe; see
+    /// [`crate::sampling::pick_component`]).
+    pub fn sample(&self, wo: Vec3, u: Vec2) -> Option<BrdfSample> {
         if wo.z <= 0.0 {
             return None;
         }
         let p_spec = self.specular_probability();
-        let wi = if u_lobe < p_spec {
+        let (lobe, x) = pick_component(u.x, &[p_spec, 1.0 - p_spec]);
+        let u = Vec2::new(x, u.y);
+        let wi = if lobe == 0 {
             let h = self.family.sample_half(self.param, u)?;
             let wi = reflect(wo, h);
             if wi.z <= 0.0 {

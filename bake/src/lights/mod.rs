@@ -104,15 +104,16 @@ impl LightSet {
     /// Samples a point on an emissive triangle as seen from `p`. `Le` is the radiance the
     /// caller evaluates at the hit (it needs the UV for emissive textures); here `value` holds
     /// 1/pdf so the caller multiplies by Le. Returns the chosen triangle and its barycentrics.
-    pub fn sample_area(
-        &self,
-        scene: &Scene,
-        p: Vec3,
-        u_pick: f32,
-        u: Vec2,
-    ) -> Option<(LightSample, u32, Vec2)> {
+    ///
+    /// `u.x` picks the triangle and, rescaled within the triangle's share, places the point
+    /// (as [`crate::sampling::pick_component`], for the same reason: a separate pick would
+    /// break the stratification of the points over a light made of several triangles). The
+    /// rescaled coordinate keeps about 24 - log2(emissive triangles) bits: 12 bits even for
+    /// 4096 emissive triangles.
+    pub fn sample_area(&self, scene: &Scene, p: Vec3, u: Vec2) -> Option<(LightSample, u32, Vec2)> {
         let pick = self.emissive_pick.as_ref()?;
-        let (i, _) = pick.sample(u_pick);
+        let (i, x) = pick.sample(u.x);
+        let u = Vec2::new(x, u.y);
         let em = &self.emissive[i];
         let tri = scene.triangles[em.triangle as usize];
         let [a, b, c] = tri.map(|v| scene.positions[v as usize]);

@@ -8,8 +8,8 @@
 //! rays); at a first hit y, N2 directions w2 come from y's coefficient-independent mixture
 //! ([`BakeModel`]) and, with three reflections, each w2 that hits z continues with one w3 from
 //! z's mixture. Every sample i of vertex v draws from its own stream
-//! `Rng::for_sample(seed, v, i)`: 3 numbers per w2 whatever happens. The w3 directions (three reflections) draw from a second stream,
-//! `Rng::for_sample(seed, v, W3_STREAM + i)`, 3 numbers per w2 whether or not a w3 is
+//! `Rng::for_sample(seed, v, i)`: 2 numbers per w2 whatever happens. The w3 directions (three reflections) draw from a second stream,
+//! `Rng::for_sample(seed, v, W3_STREAM + i)`, 2 numbers per w2 whether or not a w3 is
 //! needed: T1 is then the same, bit for bit, whether T2 is baked or not.
 //!
 //! With `light_bins` (the default), each first hit y also draws one direction in every T1
@@ -383,12 +383,10 @@ impl<'a> VertexTracer<'a> {
             let y_origin = y.p + y.ng * eps;
             for _ in 0..self.opts.secondary {
                 let bs = self.model.sample(&y, wo_y, &mut rng);
-                // This w2's three numbers of the w3 stream, used or not.
+                // This w2's point of the w3 stream (what `sample` draws), used or not.
                 let mut u3 = rng3.as_mut().map(|r| {
                     let before = r.clone();
-                    for _ in 0..3 {
-                        r.next_f32();
-                    }
+                    r.next_vec2();
                     before
                 });
                 let Some(bs) = bs else { continue };

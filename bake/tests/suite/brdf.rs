@@ -115,8 +115,7 @@ fn mc_albedo(b: &BrdfParams, wo: Vec3, n: usize, rng: &mut Rng) -> (f64, f64) {
     let (mut sum, mut sum2) = (0.0, 0.0);
     for _ in 0..n {
         let u = rng.next_vec2();
-        let ul = rng.next_f32();
-        if let Some(smp) = b.sample(wo, u, ul) {
+        if let Some(smp) = b.sample(wo, u) {
             let f = b.eval(wo, smp.wi).x as f64;
             let x = f * smp.wi.z as f64 / smp.pdf as f64;
             sum += x;
@@ -299,7 +298,7 @@ fn pdf_normalization() {
             // mass the sampler sends below the horizon (it returns None for those)
             let n = 200_000;
             let lost = (0..n)
-                .filter(|_| b.sample(wo, rng.next_vec2(), rng.next_f32()).is_none())
+                .filter(|_| b.sample(wo, rng.next_vec2()).is_none())
                 .count() as f64
                 / n as f64;
             assert!(
@@ -357,7 +356,7 @@ fn sampled_histogram_matches_pdf() {
         let n = 200_000usize;
         let mut hist = vec![0.0f64; nz * np];
         for _ in 0..n {
-            if let Some(s) = b.sample(wo, rng.next_vec2(), rng.next_f32()) {
+            if let Some(s) = b.sample(wo, rng.next_vec2()) {
                 let z = s.wi.z.clamp(0.0, 0.999_999) as f64;
                 let p = (s.wi.y as f64).atan2(s.wi.x as f64).rem_euclid(2.0 * PI);
                 let (a, c) = (
