@@ -13,8 +13,6 @@
 
 use obvhs::{aabb::Aabb, bvh2::Bvh2};
 
-use super::bvh8::NODE_TRIANGLES;
-
 /// Cost of visiting a node, per unit of its half area (the surface-area heuristic's weight).
 const NODE_COST: f32 = 1.0;
 
@@ -92,9 +90,10 @@ const NONE: Decision = Decision {
     left: 0,
 };
 
-/// Collapses `bvh2` (non-empty, one primitive per leaf, as obvhs' PLOC builds it).
-pub(super) fn collapse(bvh2: &Bvh2, cost: CollapseCost) -> Collapsed {
-    let max_leaf = cost.max_leaf.clamp(1, NODE_TRIANGLES as u32);
+/// Collapses `bvh2` (non-empty, one primitive per leaf, as obvhs' PLOC builds it) into nodes
+/// whose leaves hold at most `node_triangles` triangles together (the layout's capacity).
+pub(super) fn collapse(bvh2: &Bvh2, cost: CollapseCost, node_triangles: usize) -> Collapsed {
+    let max_leaf = cost.max_leaf.clamp(1, node_triangles as u32);
     let n = bvh2.nodes.len();
     let mut decisions = vec![[NONE; 7]; n];
     let mut counts = vec![0u32; n];
@@ -133,6 +132,7 @@ pub(super) fn collapse(bvh2: &Bvh2, cost: CollapseCost) -> Collapsed {
         bvh2,
         decisions: &decisions,
         counts: &counts,
+        node_triangles,
         out: &mut out,
     }
     .emit();
@@ -196,6 +196,7 @@ struct Emitter<'a> {
     bvh2: &'a Bvh2,
     decisions: &'a [[Decision; 7]],
     counts: &'a [u32],
+    node_triangles: usize,
     out: &'a mut Collapsed,
 }
 
@@ -238,7 +239,7 @@ impl Emitter<'_> {
     }
 
     /// The slots of the wide node made of binary node `i`: (binary node, is a leaf), at most
-    /// eight, their leaves' triangles at most `NODE_TRIANGLES` together.
+    /// eight, their leaves' triangles at most `node_triangles` together.
     fn children(&self, i: usize) -> Vec<(usize, bool)> {
         let mut slots = Vec::with_capacity(8);
         let node = &self.bvh2.nodes[i];
@@ -251,7 +252,7 @@ impl Emitter<'_> {
         // inner binary node and has an inner split.
         loop {
             let total: u32 = slots.iter().filter(|s| s.1).map(|s| self.counts[s.0]).sum();
-            if total as usize <= NODE_TRIANGLES {
+            if total as usize <= self.node_triangles {
                 break;
             }
             if let Some(s) = slots

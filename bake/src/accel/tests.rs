@@ -328,7 +328,7 @@ fn collapse_keeps_every_triangle_once_within_node_capacity() {
         .chain(&EXTREME_COSTS)
         .enumerate()
     {
-        let tree = collapse(&bvh2, *cost);
+        let tree = collapse(&bvh2, *cost, NODE_TRIANGLES);
         let mut got = tree.primitives.clone();
         got.sort_unstable();
         assert_eq!(got, want, "cost {cost:?}: leaf references differ");
