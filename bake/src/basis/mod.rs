@@ -33,6 +33,7 @@ use pca::{PcaBuilder, PcaModel, PcaOptions, SampleDensity};
 use prt_formats::basis::{
     AngularGrid, BrdfBasis, GridKind, GridSpec, ParamWarp, BASIS_SCHEMA_VERSION,
 };
+use rayon::prelude::*;
 use std::f64::consts::FRAC_1_PI;
 
 /// A family's parameter space: which lobe, over what range, interpolated in what warp.
@@ -192,7 +193,9 @@ impl BasisBuilder {
     /// Builds the basis with `num_bases` bases (Lambert included).
     pub fn build(&self, num_bases: usize) -> Result<BuiltBasis, BasisError> {
         let model = self.pca.build(num_bases)?;
+        // One projection per lobe, each on its own (the same bits in parallel).
         let coeffs: Vec<Vec<f64>> = (0..self.params.len())
+            .into_par_iter()
             .map(|j| model.project(self.lobes.col_as_slice(j)))
             .collect();
         Ok(BuiltBasis {

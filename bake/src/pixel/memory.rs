@@ -81,6 +81,12 @@ pub fn basis_build_bytes(family: Family) -> u64 {
     })
 }
 
+/// Peak bytes of building the bases of `families` (family, basis count): all at once, as
+/// [`crate::run::build_counted_bases`] does.
+pub fn bases_build_bytes(families: &[(Family, usize)]) -> u64 {
+    families.iter().map(|&(f, _)| basis_build_bytes(f)).sum()
+}
+
 /// Estimates the bake's peak memory. Counts the materials visible per pixel with four
 /// primary rays per pixel and sizes the dense accumulation rows from the planned slots.
 pub fn estimate_memory(
@@ -139,12 +145,7 @@ pub fn estimate_memory(
         };
     let image = w as u64 * h as u64 * 12;
     let trace_bytes = dense + write + image;
-    let basis_bytes = plan
-        .basis_families
-        .iter()
-        .map(|&(f, _)| basis_build_bytes(f))
-        .max()
-        .unwrap_or(0);
+    let basis_bytes = bases_build_bytes(&plan.basis_families);
     let resident_bytes = PROCESS_BYTES + scene_bytes(integ.scene);
     MemoryEstimate {
         bytes: resident_bytes + trace_bytes.max(basis_bytes),

@@ -13,7 +13,7 @@
 use prt_formats::pixel::Precision;
 use prt_formats::vertex::{cube_len, VISIBILITY_CUBE};
 
-use crate::pixel::memory::{basis_build_bytes, scene_bytes, PROCESS_BYTES};
+use crate::pixel::memory::{bases_build_bytes, scene_bytes, PROCESS_BYTES};
 use crate::scene::{Environment, Scene};
 
 use super::cluster_choice::candidate_sizes;
@@ -35,13 +35,7 @@ impl VertexPlan {
         threads: usize,
     ) -> VertexMemoryEstimate {
         let resident_bytes = PROCESS_BYTES + scene_bytes(scene);
-        let pca = self
-            .slots
-            .basis_families
-            .iter()
-            .map(|&(f, _)| basis_build_bytes(f))
-            .max()
-            .unwrap_or(0);
+        let pca = bases_build_bytes(&self.slots.basis_families);
         let shading = if self.shading_families().is_empty() {
             0
         } else {

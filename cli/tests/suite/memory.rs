@@ -43,7 +43,7 @@ fn memory_estimate_is_within_25_percent_of_the_measured_peak() {
     // (scene, size, which phase the estimate says is the peak)
     let cases = [
         ("cornell", 128, "basis"),
-        ("cornell", 1024, "trace"),
+        ("cornell", 1536, "trace"),
         ("furnace/furnace.glb", 256, "trace"),
     ];
     let mut failures = Vec::new();
