@@ -54,12 +54,13 @@ pub(super) struct CollapseCost {
 }
 
 impl CollapseCost {
-    /// Measured on incoherent bounce rays (`bench compare-rays`, interleaved), against the
-    /// CWBVH's 3 and 0.3 (which this collapse reproduces, at the same speed): 1M triangles
-    /// 5-20 % faster, 100K 3-10 %, the Cornell box 0-5 %. The tree has a quarter fewer
-    /// nodes (1M: 76K instead of 102K; 1.9 triangles per leaf instead of 1.45). A cap of 6,
-    /// 12 or 16, or a triangle cost of 0.15 or 0.3, measured within the noise of this one;
-    /// above 8 the cap hardly binds.
+    /// Measured on incoherent bounce rays against the CWBVH's 3 and 0.3 (which this collapse
+    /// reproduces, at the same speed): in `bench/compare/run.sh`'s interleaved rounds (eight
+    /// figures per scene: closest hit and occlusion, one ray and streams, one and two
+    /// threads) 100K triangles +0 to +13 %, 1M -2 to +16 %, the Cornell box -6 to +10 %
+    /// (its noise). The tree has a quarter fewer nodes (1M: 76K instead of 102K; 1.9
+    /// triangles per leaf instead of 1.45). A cap of 6, 12 or 16, or a triangle cost of 0.15
+    /// or 0.3, measured within the noise of this one; above 8 the cap hardly binds.
     pub const DEFAULT: CollapseCost = CollapseCost {
         max_leaf: 8,
         tri_cost: 0.2,
