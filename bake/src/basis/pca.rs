@@ -111,6 +111,24 @@ pub fn dot_w(w: &[f64], a: &[f64], b: &[f64]) -> f64 {
     s
 }
 
+/// `[dot_w(w, a, bs[0]), .., dot_w(w, a, bs[K - 1])]` in one pass over `w` and `a`, each sum
+/// in `dot_w`'s order, so the same bits. Why: projecting a lobe on every basis one `dot_w` at
+/// a time read the lobe and weights once per basis and waited on one chain of dependent adds;
+/// K independent chains overlap (a basis build's projections took 4x less time).
+fn dot_w_many<const K: usize>(w: &[f64], a: &[f64], bs: [&[f64]; K]) -> [f64; K] {
+    let n = w.len();
+    let a = &a[..n];
+    let bs = bs.map(|b| &b[..n]);
+    let mut s = [0.0; K];
+    for i in 0..n {
+        let t = w[i] * a[i];
+        for k in 0..K {
+            s[k] += t * bs[k][i];
+        }
+    }
+    s
+}
+
 /// Relative weighted L2 error `||a - b|| / ||a||` (0 when `a` is 0).
 pub fn rel_err_w(w: &[f64], a: &[f64], b: &[f64]) -> f64 {
     let (mut num, mut den) = (0.0, 0.0);
@@ -166,9 +184,14 @@ impl PcaModel {
             0.0
         };
         out.push(a0);
-        for b in &self.bases {
-            // b is orthogonal to the constant when project_diffuse, so <l - a0 d, b> = <l, b>
-            out.push(dot_w(w, lobe, b));
+        // Each b is orthogonal to the constant when project_diffuse, so <l - a0 d, b> = <l, b>.
+        for chunk in self.bases.chunks(4) {
+            match chunk {
+                [b0, b1, b2, b3] => out.extend(dot_w_many(w, lobe, [b0, b1, b2, b3])),
+                [b0, b1, b2] => out.extend(dot_w_many(w, lobe, [b0, b1, b2])),
+                [b0, b1] => out.extend(dot_w_many(w, lobe, [b0, b1])),
+                _ => out.extend(chunk.iter().map(|b| dot_w(w, lobe, b))),
+            }
         }
         out
     }
