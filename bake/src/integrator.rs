@@ -247,7 +247,12 @@ impl<'a> Integrator<'a> {
     /// for what it emits, and building its [`Surface`] (normals, frame, uv) cost about 5 %
     /// of a reference render.
     #[inline]
-    fn hit_emission(&self, triangle: u32, bary: Vec2, dir: Vec3) -> Option<(Vec3, Vec3)> {
+    pub(crate) fn hit_emission(
+        &self,
+        triangle: u32,
+        bary: Vec2,
+        dir: Vec3,
+    ) -> Option<(Vec3, Vec3)> {
         let le = self.emission_at(triangle, bary);
         if le == Vec3::ZERO {
             return None;

@@ -7,6 +7,7 @@ pub mod basis;
 pub mod brdf;
 pub mod config;
 pub mod error;
+pub mod film_emission;
 pub mod integrator;
 pub mod lights;
 pub mod metrics;

@@ -69,7 +69,10 @@ impl MaterialModel for TrueBrdfModel<'_> {
 pub struct ContractSink<'a> {
     /// `coefficients[material][slot]`, RGB.
     pub coefficients: &'a [Vec<Vec3>],
-    pub value: Vec3,
+    /// What the paths reflected towards the camera.
+    pub reflected: Vec3,
+    /// What the camera saw directly (non-finite values dropped, as the bake drops them).
+    pub emission: Vec3,
     pub first_material: Option<u32>,
 }
 
@@ -77,9 +80,15 @@ impl<'a> ContractSink<'a> {
     pub fn new(coefficients: &'a [Vec<Vec3>]) -> Self {
         ContractSink {
             coefficients,
-            value: Vec3::ZERO,
+            reflected: Vec3::ZERO,
+            emission: Vec3::ZERO,
             first_material: None,
         }
+    }
+
+    /// The camera sample's radiance: reflected plus directly seen.
+    pub fn value(&self) -> Vec3 {
+        self.reflected + self.emission
     }
 
     #[inline]
@@ -94,7 +103,9 @@ impl<'a> ContractSink<'a> {
 
 impl PathSink for ContractSink<'_> {
     fn camera_emission(&mut self, radiance: Vec3) {
-        self.value += radiance;
+        if radiance.is_finite() {
+            self.emission += radiance;
+        }
     }
 
     fn first_hit(&mut self, surface: &Surface) {
@@ -108,7 +119,7 @@ impl PathSink for ContractSink<'_> {
             v *= self.contract(s);
         }
         if v.is_finite() {
-            self.value += v;
+            self.reflected += v;
         }
     }
 }
@@ -142,13 +153,15 @@ impl Render {
 }
 
 /// Renders `integrator`'s view with `model`, contracting with `coefficients`, `spp` samples per
-/// pixel, streams keyed by `seed`. Deterministic for any thread count: each pixel owns its
-/// streams and pixels are reduced in a fixed order.
+/// pixel (what the camera sees directly with `emission_oversampling` times as many,
+/// `crate::film_emission`), streams keyed by `seed`. Deterministic for any thread
+/// count: each pixel owns its streams and pixels are reduced in a fixed order.
 pub fn render<M: MaterialModel>(
     integrator: &Integrator,
     model: &M,
     coefficients: &[Vec<Vec3>],
     spp: u32,
+    emission_oversampling: u32,
     seed: u64,
     progress: Option<&dyn Progress>,
 ) -> Render {
@@ -160,6 +173,7 @@ pub fn render<M: MaterialModel>(
         rays: u64,
         sums: Vec<(Vec3, u64)>,
     }
+    let plan = integrator.emission_plan(emission_oversampling);
     let stage = Stage::start(progress, "rendering", h as u64);
     let rows: Vec<RowOut> = (0..h)
         .into_par_iter()
@@ -173,18 +187,27 @@ pub fn render<M: MaterialModel>(
             let mut sampler = PixelSampler::new(spp, integrator.draws_per_sample());
             for x in 0..w {
                 let pixel = y as u64 * w as u64 + x as u64;
-                let mut acc = Vec3::ZERO;
+                let mut reflected = Vec3::ZERO;
+                let mut emission = Vec3::ZERO;
                 sampler.start(seed, pixel);
                 for s in 0..spp {
                     let mut rng = sampler.sample(s);
                     let mut sink = ContractSink::new(coefficients);
                     out.rays += integrator.trace_sample(model, &mut sink, x, y, &mut rng) as u64;
-                    acc += sink.value;
+                    reflected += sink.reflected;
+                    emission += sink.emission;
                     let bucket = sink.first_material.map_or(nmat, |m| m as usize);
-                    out.sums[bucket].0 += sink.value;
+                    out.sums[bucket].0 += sink.value();
                     out.sums[bucket].1 += 1;
                 }
-                out.pixels.push(acc / spp.max(1) as f32);
+                // The same sums and scalings as the pixel bake, so that relighting matches
+                // this render to float rounding.
+                let oversampling = plan.oversampling(x, y);
+                let (emission, rays) =
+                    integrator.pixel_emission(&sampler, x, y, spp, oversampling, emission);
+                out.rays += rays;
+                out.pixels
+                    .push(reflected * (1.0 / spp.max(1) as f32) + emission);
             }
             stage.advance(1);
             out
@@ -192,7 +215,7 @@ pub fn render<M: MaterialModel>(
         .collect();
     drop(stage);
     let mut pixels = Vec::with_capacity((w * h) as usize);
-    let mut rays = 0;
+    let mut rays = plan.probe_rays();
     let mut sums = vec![(glam::DVec3::ZERO, 0u64); nmat + 1];
     for r in rows {
         pixels.extend(r.pixels);
@@ -219,13 +242,16 @@ pub fn render<M: MaterialModel>(
 
 /// The ground truth in one call: builds the ray-query structure and lights for `scene` and
 /// renders its camera view `width` x `height` with the true BRDFs, `reflections` reflections,
-/// `spp` samples per pixel and streams keyed by `seed`.
+/// `spp` samples per pixel (what the camera sees directly with `emission_oversampling` times
+/// as many) and streams keyed by `seed`.
+#[allow(clippy::too_many_arguments)]
 pub fn render_true(
     scene: &Scene,
     reflections: usize,
     width: u32,
     height: u32,
     spp: u32,
+    emission_oversampling: u32,
     seed: u64,
     progress: Option<&dyn Progress>,
 ) -> Render {
@@ -238,6 +264,7 @@ pub fn render_true(
         &model,
         &unit_coefficients(scene.materials.len()),
         spp,
+        emission_oversampling,
         seed,
         progress,
     )

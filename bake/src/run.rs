@@ -235,6 +235,7 @@ pub fn run_pixel(
         width: s.width.unwrap_or(config.width),
         height: s.height.unwrap_or(config.height),
         spp: s.spp.unwrap_or(config.spp),
+        emission_oversampling: config.emission_oversampling,
         reflections: config.reflections,
         seed: config.seed,
         precision: s.precision.unwrap_or(Precision::F32),

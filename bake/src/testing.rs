@@ -349,7 +349,7 @@ pub fn camera_samples(
                     let radiance = if trace {
                         let mut sink = ContractSink::new(&coefficients);
                         integ.trace_sample(&model, &mut sink, x, y, &mut rng);
-                        sink.value
+                        sink.value()
                     } else {
                         Vec3::ZERO
                     };

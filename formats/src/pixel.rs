@@ -106,6 +106,12 @@ pub struct PixelBakeMeta {
     pub height: u32,
     /// Samples per pixel the tensors were estimated with.
     pub spp: u32,
+    /// Film samples per path sample of the emission image (the radiance the camera sees
+    /// directly: emitters, the environment) in the pixels where it varies across the pixel;
+    /// the others use `spp`. `None` in files written before it was recorded, which used
+    /// `spp` everywhere ([`PixelBakeMeta::emission_oversampling`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub emission_oversampling: Option<u32>,
     /// Reflections per path: 2 stores T0 and T1, 3 adds T2.
     pub reflections: u32,
     /// The seed of the random streams.
@@ -378,6 +384,12 @@ pub fn element_index(
 }
 
 impl PixelBakeMeta {
+    /// Film samples per path sample of the emission image where it varies (1 where the file
+    /// does not say).
+    pub fn emission_oversampling(&self) -> u32 {
+        self.emission_oversampling.unwrap_or(1)
+    }
+
     /// The metadata as the JSON the file's `__metadata__` stores.
     pub fn to_json(&self) -> serde_json::Value {
         serde_json::to_value(self).unwrap_or(serde_json::Value::Null)

@@ -153,6 +153,7 @@ pub fn small_options(
         width: w,
         height: h,
         spp,
+        emission_oversampling: prt_bake::film_emission::DEFAULT_EMISSION_OVERSAMPLING,
         reflections,
         seed: 11,
         precision,
@@ -270,6 +271,7 @@ pub fn reference_image(
         setting.width,
         setting.height,
         spp,
+        prt_bake::film_emission::DEFAULT_EMISSION_OVERSAMPLING,
         seed,
         None,
     )

@@ -18,6 +18,7 @@ use serde::de::{self, Deserializer, MapAccess, SeqAccess, Visitor};
 use serde::Deserialize;
 
 use crate::brdf::{Family, ALPHA_RANGE, SHININESS_RANGE};
+use crate::film_emission::DEFAULT_EMISSION_OVERSAMPLING;
 
 pub mod input;
 mod vertex;
@@ -30,6 +31,8 @@ pub const MAX_SPP: u32 = 1 << 20;
 /// Largest accepted number of reflections per path: what the integrator supports (one limit,
 /// so a config can never ask for more than is rendered).
 pub const MAX_REFLECTIONS: u32 = crate::integrator::MAX_REFLECTIONS as u32;
+/// Largest accepted `emission_oversampling`.
+pub const MAX_EMISSION_OVERSAMPLING: u32 = 64;
 /// Largest accepted `[basis] count`.
 pub const MAX_BASIS_COUNT: u32 = 1024;
 
@@ -107,6 +110,10 @@ pub struct BakeConfig {
     pub width: u32,
     pub height: u32,
     pub spp: u32,
+    /// Camera samples per path sample for what the camera sees directly (emitters, the
+    /// environment): per-pixel mode only
+    /// ([`crate::film_emission::DEFAULT_EMISSION_OVERSAMPLING`] says why).
+    pub emission_oversampling: u32,
     /// Number of reflections along a path: 1 = direct only, 2 = direct + one bounce, ...
     pub reflections: u32,
     pub seed: u64,
@@ -192,6 +199,7 @@ impl BakeConfig {
             width: DEFAULT_WIDTH,
             height: DEFAULT_HEIGHT,
             spp: DEFAULT_SPP,
+            emission_oversampling: DEFAULT_EMISSION_OVERSAMPLING,
             reflections: DEFAULT_REFLECTIONS,
             seed: 0,
             environment: EnvironmentConfig::Color(Vec3::ZERO),
@@ -253,6 +261,7 @@ struct RawConfig {
     width: Option<u32>,
     height: Option<u32>,
     spp: Option<u32>,
+    emission_oversampling: Option<u32>,
     reflections: Option<u32>,
     seed: Option<u64>,
     environment: Option<RawEnvironment>,
@@ -527,6 +536,17 @@ impl RawConfig {
             .transpose()?;
 
         let mode = self.mode.unwrap_or(Mode::Pixel);
+        let emission_oversampling = match self.emission_oversampling {
+            Some(_) if mode == Mode::Vertex => {
+                return Err(c.err(
+                    "emission_oversampling",
+                    "applies to the camera's samples of a per-pixel bake; a per-vertex bake \
+                     has none",
+                ))
+            }
+            Some(k) => c.range_u32("emission_oversampling", k, 1, MAX_EMISSION_OVERSAMPLING)?,
+            None => DEFAULT_EMISSION_OVERSAMPLING,
+        };
         if let Some(v) = &self.vertex {
             v.validate(&c, mode)?;
         }
@@ -539,6 +559,7 @@ impl RawConfig {
             width,
             height,
             spp,
+            emission_oversampling,
             reflections,
             seed: self.seed.unwrap_or(0),
             environment,
@@ -677,8 +698,33 @@ mod tests {
             (256, 256, 64, 2, 0)
         );
         assert_eq!(c.mode, Mode::Pixel);
+        assert_eq!(c.emission_oversampling, DEFAULT_EMISSION_OVERSAMPLING);
         assert_eq!(c.environment, EnvironmentConfig::Color(Vec3::ZERO));
         assert!(c.basis.is_none());
+    }
+
+    #[test]
+    fn emission_oversampling_is_checked_and_per_pixel_only() {
+        let c = parse("scene = \"x.gltf\"\nemission_oversampling = 1").expect("1 turns it off");
+        assert_eq!(c.emission_oversampling, 1);
+        for bad in [0, MAX_EMISSION_OVERSAMPLING + 1] {
+            let e = parse(&format!(
+                "scene = \"x.gltf\"\nemission_oversampling = {bad}"
+            ))
+            .unwrap_err()
+            .to_string();
+            assert!(
+                e.contains("`emission_oversampling`") && e.contains("outside"),
+                "{e}"
+            );
+        }
+        let e = parse("scene = \"x.gltf\"\nmode = \"vertex\"\nemission_oversampling = 2")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("`emission_oversampling`") && e.contains("per-vertex"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -32,6 +32,9 @@ impl BakeConfig {
         let _ = writeln!(w, "width = {}", self.width);
         let _ = writeln!(w, "height = {}", self.height);
         let _ = writeln!(w, "spp = {}", self.spp);
+        if self.mode == Mode::Pixel {
+            let _ = writeln!(w, "emission_oversampling = {}", self.emission_oversampling);
+        }
         let _ = writeln!(w, "reflections = {}", self.reflections);
         let _ = writeln!(w, "seed = {}", self.seed);
 

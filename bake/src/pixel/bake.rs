@@ -30,6 +30,9 @@ pub struct PixelBakeOptions {
     pub width: u32,
     pub height: u32,
     pub spp: u32,
+    /// Camera samples per path sample for what the camera sees directly
+    /// ([`crate::film_emission::DEFAULT_EMISSION_OVERSAMPLING`]).
+    pub emission_oversampling: u32,
     pub reflections: u32,
     pub seed: u64,
     pub precision: Precision,
@@ -138,6 +141,7 @@ pub fn bake_with(
         entries: Vec<(u32, u32, Vec<f32>)>,
         rays: u64,
     }
+    let plan = integ.emission_plan(opts.emission_oversampling);
     let stage = Stage::start(progress, "baking", h as u64);
     let rows: Vec<RowOut> = (0..h)
         .into_par_iter()
@@ -158,7 +162,16 @@ pub fn bake_with(
                     sink.current = None;
                     out.rays += integ.trace_sample(&model, &mut sink, x, y, &mut rng) as u64;
                 }
-                out.emission.extend((sink.emission * inv).to_array());
+                let (emission, rays) = integ.pixel_emission(
+                    &sampler,
+                    x,
+                    y,
+                    spp,
+                    plan.oversampling(x, y),
+                    sink.emission,
+                );
+                out.rays += rays;
+                out.emission.extend(emission.to_array());
                 for (m, mut row) in sink.rows {
                     row.iter_mut().for_each(|v| *v *= inv);
                     out.entries.push((pixel as u32, m, row));
@@ -175,7 +188,7 @@ pub fn bake_with(
     let nmat = layout.materials.len();
     let mut emission = Vec::with_capacity((w * h * 3) as usize);
     let mut per_mat: Vec<(Vec<u32>, Vec<Vec<f32>>)> = vec![(Vec::new(), Vec::new()); nmat];
-    let mut rays = 0u64;
+    let mut rays = plan.probe_rays();
     for r in rows {
         emission.extend(r.emission);
         rays += r.rays;
@@ -234,6 +247,7 @@ pub fn bake_with(
         width: w,
         height: h,
         spp,
+        emission_oversampling: Some(opts.emission_oversampling.max(1)),
         reflections: opts.reflections,
         seed: opts.seed,
         channels: c as u32,

@@ -124,6 +124,14 @@ fn permutation_element(mut i: u32, l: u32, p: u32) -> u32 {
     }
 }
 
+/// Point `i` of the first two Sobol dimensions, each coordinate Owen-scrambled by its seed.
+#[inline]
+fn sobol_point(i: u32, sx: u32, sy: u32) -> Vec2 {
+    let x = laine_karras(i, sx).reverse_bits();
+    let y = laine_karras(sobol1_reversed(i), sy).reverse_bits();
+    Vec2::new(unit(x), unit(y))
+}
+
 /// 24 bits of a value in [0, 2^32) as a float in [0, 1), never rounded up to 1.
 #[inline]
 fn unit(x: u32) -> f32 {
@@ -176,7 +184,8 @@ impl PixelSampler {
         PixelSampler {
             key: 0,
             spp,
-            draws: draws.min(TABLE_DRAWS),
+            // At least the film jitter, which `extra_film_point` continues.
+            draws: draws.clamp(1, TABLE_DRAWS),
             seeds: [[0; 4]; TABLE_DRAWS],
             shuffle: Vec::new(),
             table_spp,
@@ -207,6 +216,20 @@ impl PixelSampler {
                 perm.swap(i, j);
             }
         }
+    }
+
+    /// The film point of extra camera sample `j` of the pixel started last: Sobol point
+    /// `spp + j` of the first draw (the film jitter), under that draw's scrambles.
+    ///
+    /// Why these points: the pixel's samples take points 0..spp of that draw in shuffled
+    /// order, so samples and extras together take the first `spp + j + 1` points of one
+    /// scrambled (0,2)-sequence, and with `spp x k` points in all (k a power of two, spp too)
+    /// they form one net, stratified as a single run of that many samples would be. Each point
+    /// is uniform on the pixel (Owen scrambling), so an average over them is unbiased.
+    #[inline]
+    pub fn extra_film_point(&self, j: u32) -> Vec2 {
+        let [_, _, sx, sy] = self.seeds[0];
+        sobol_point(self.spp.wrapping_add(j), sx, sy)
     }
 
     /// The draws of sample `sample` (below spp) of the pixel started last.
@@ -276,9 +299,7 @@ impl PathSampler<'_> {
         let Some((i, sx, sy)) = self.next_draw() else {
             return self.unprepared().next_vec2();
         };
-        let x = laine_karras(i, sx).reverse_bits();
-        let y = laine_karras(sobol1_reversed(i), sy).reverse_bits();
-        Vec2::new(unit(x), unit(y))
+        sobol_point(i, sx, sy)
     }
 }
 
@@ -352,6 +373,38 @@ mod tests {
                         let cell = (x * n as f32) as usize;
                         assert!(!seen[cell], "k {k} 1D draw {d}");
                         seen[cell] = true;
+                    }
+                }
+            }
+        }
+    }
+
+    /// A pixel's film jitters (draw 0 of its spp samples) and its `(m - 1) spp` extra film
+    /// points together are one net of `m spp` points, with and without the shuffle table:
+    /// what makes oversampled emission stratified as one run of `m spp` samples would be.
+    /// Fails if the extras restart the sequence (they would repeat the samples' points).
+    #[test]
+    fn extra_film_points_complete_the_jitters_net() {
+        for (spp, m, table_spp) in [
+            (16u32, 2u32, SHUFFLE_TABLE_SPP),
+            (16, 4, 0),
+            (64, 4, SHUFFLE_TABLE_SPP),
+        ] {
+            let n = spp * m;
+            let k = n.trailing_zeros();
+            let mut sampler = PixelSampler::with_table_limit(spp, 6, table_spp);
+            for pixel in 0..3u64 {
+                sampler.start(11, pixel);
+                let mut points: Vec<Vec2> =
+                    (0..spp).map(|s| sampler.sample(s).next_vec2()).collect();
+                points.extend((0..n - spp).map(|j| sampler.extra_film_point(j)));
+                for a in 0..=k {
+                    let (cx, cy) = (1u32 << a, 1u32 << (k - a));
+                    let mut seen = vec![false; n as usize];
+                    for q in &points {
+                        let cell = (q.x * cx as f32) as u32 * cy + (q.y * cy as f32) as u32;
+                        assert!(!seen[cell as usize], "spp {spp} x {m}: shape {cx}x{cy}");
+                        seen[cell as usize] = true;
                     }
                 }
             }

@@ -5,6 +5,7 @@ mod accel;
 mod basis;
 mod brdf;
 mod camera;
+mod emission;
 mod render_analytic;
 mod scene_loading;
 mod shading_basis;

@@ -18,7 +18,16 @@ fn render_scene(
     h: u32,
     spp: u32,
 ) -> prt_bake::reference::Render {
-    prt_bake::reference::render_true(scene, reflections, w, h, spp, 7, None)
+    prt_bake::reference::render_true(
+        scene,
+        reflections,
+        w,
+        h,
+        spp,
+        prt_bake::film_emission::DEFAULT_EMISSION_OVERSAMPLING,
+        7,
+        None,
+    )
 }
 
 /// Mean of `values` and the standard error of that mean, per channel, with the sample

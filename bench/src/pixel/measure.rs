@@ -4,6 +4,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, Result};
+use prt_bake::config::BakeConfig;
 use prt_bake::metrics::relative_l2;
 use prt_bake::pixel::{self, Compressed, PixelBake, PixelBakeOptions, Precision, SlotLayout};
 use prt_bake::scene::Scene;
@@ -34,6 +35,7 @@ pub(crate) fn bake_once(
         width: w,
         height: h,
         spp,
+        emission_oversampling: ctx.config.emission_oversampling,
         reflections: ctx.config.reflections,
         seed: ctx.config.seed,
         precision: Precision::F16,
@@ -58,17 +60,27 @@ pub(crate) struct RefRun {
     pub(crate) rays: u64,
 }
 
-/// True-BRDF render of `scene` (timed from the acceleration structure build on, as the bake).
+/// True-BRDF render of `scene` with `config`'s reflections and emission oversampling (timed
+/// from the acceleration structure build on, as the bake).
 pub(crate) fn reference(
     scene: &Scene,
-    reflections: u32,
+    config: &BakeConfig,
     w: u32,
     h: u32,
     spp: u32,
     seed: u64,
 ) -> RefRun {
     let t = Instant::now();
-    let r = prt_bake::reference::render_true(scene, reflections as usize, w, h, spp, seed, None);
+    let r = prt_bake::reference::render_true(
+        scene,
+        config.reflections as usize,
+        w,
+        h,
+        spp,
+        config.emission_oversampling,
+        seed,
+        None,
+    );
     RefRun {
         pixels: r.pixels.iter().map(|p| p.to_array()).collect(),
         seconds: t.elapsed().as_secs_f64(),

@@ -92,14 +92,7 @@ pub fn run(opts: &ReportOptions) -> Result<ReportSummary> {
     let file_bytes = write_bake(&b.bake, &path)?;
     remove(&path);
     say(format!("{}: reference {dw}x{dh} at {dspp} spp", main.name));
-    let r = reference(
-        &main.scene,
-        main.config.reflections,
-        dw,
-        dh,
-        dspp,
-        main.config.seed,
-    );
+    let r = reference(&main.scene, &main.config, dw, dh, dspp, main.config.seed);
     bake_rows.push(BakeRow {
         what: "config's size and spp".into(),
         width: dw,
@@ -129,7 +122,7 @@ pub fn run(opts: &ReportOptions) -> Result<ReportSummary> {
         ));
         reference(
             &main.scene,
-            main.config.reflections,
+            &main.config,
             plan.big,
             plan.big,
             big_spp,
@@ -252,7 +245,7 @@ pub fn run(opts: &ReportOptions) -> Result<ReportSummary> {
             ));
             let r = reference(
                 &main.scene,
-                main.config.reflections,
+                &main.config,
                 n,
                 n,
                 plan.small_spp,
@@ -309,22 +302,8 @@ pub fn run(opts: &ReportOptions) -> Result<ReportSummary> {
                 ctx.name, s.label, plan.ref_half_spp
             ));
             let sc = ctx.scene_with(s)?;
-            let a = reference(
-                &sc,
-                ctx.config.reflections,
-                n,
-                n,
-                plan.ref_half_spp,
-                1_000_003,
-            );
-            let b = reference(
-                &sc,
-                ctx.config.reflections,
-                n,
-                n,
-                plan.ref_half_spp,
-                2_000_003,
-            );
+            let a = reference(&sc, &ctx.config, n, n, plan.ref_half_spp, 1_000_003);
+            let b = reference(&sc, &ctx.config, n, n, plan.ref_half_spp, 2_000_003);
             let mean: Vec<[f32; 3]> = a
                 .pixels
                 .iter()

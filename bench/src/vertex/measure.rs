@@ -90,6 +90,7 @@ pub(crate) fn references(
             size,
             size,
             spp,
+            prt_bake::film_emission::DEFAULT_EMISSION_OVERSAMPLING,
             config.seed,
             None,
         );

@@ -123,6 +123,7 @@ fn run(args: Args) -> Result<()> {
         width,
         height,
         spp,
+        config.emission_oversampling,
         args.seed.unwrap_or(config.seed),
         Some(&progress),
     );
@@ -168,6 +169,7 @@ fn run(args: Args) -> Result<()> {
             "width": width,
             "height": height,
             "spp": spp,
+            "emission_oversampling": config.emission_oversampling,
             "reflections": config.reflections,
             "samples": width as u64 * height as u64 * spp as u64,
             "seconds": r.seconds,

@@ -32,6 +32,7 @@ fn the_metadata_json_round_trips() {
         width: 7,
         height: 5,
         spp: 16,
+        emission_oversampling: Some(4),
         reflections: 3,
         seed: 99,
         channels: 3,
@@ -82,6 +83,18 @@ fn the_metadata_json_round_trips() {
     assert_eq!(
         serde_json::to_string(&back).expect("json"),
         serde_json::to_string(&meta).expect("json")
+    );
+    assert_eq!(back.emission_oversampling(), 4);
+    // Files from before `emission_oversampling` was recorded sampled emission with the paths.
+    let mut old = meta.to_json();
+    old.as_object_mut()
+        .expect("an object")
+        .remove("emission_oversampling");
+    let old: PixelBakeMeta =
+        serde_json::from_value(old).expect("metadata without emission_oversampling");
+    assert_eq!(
+        (old.emission_oversampling, old.emission_oversampling()),
+        (None, 1)
     );
 }
 

@@ -214,6 +214,7 @@ fn tiny_bake(
         width,
         height,
         spp: 2,
+        emission_oversampling: config.emission_oversampling,
         reflections: config.reflections,
         seed: 7,
         precision,

@@ -22,6 +22,7 @@ fn meta() -> PixelBakeMeta {
         width: 1,
         height: 1,
         spp: 1,
+        emission_oversampling: None,
         reflections: 1,
         seed: 0,
         channels: 1,

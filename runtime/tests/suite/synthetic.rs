@@ -197,6 +197,7 @@ impl Synthetic {
                 width: W,
                 height: H,
                 spp: 1,
+                emission_oversampling: Some(8),
                 reflections: REFLECTIONS,
                 seed,
                 channels,

@@ -37,6 +37,9 @@ fn bake(
         width: size.0,
         height: size.1,
         spp,
+        // The identities below hold per camera sample (a pixel's emission and transfer from
+        // the same samples add up to what they cover), so no extra emission samples.
+        emission_oversampling: 1,
         reflections,
         seed,
         precision: Precision::F32,

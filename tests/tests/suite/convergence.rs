@@ -16,6 +16,7 @@
 
 use std::path::PathBuf;
 
+use prt_bake::film_emission::DEFAULT_EMISSION_OVERSAMPLING;
 use prt_bake::pixel::{self, PixelBakeOptions, Precision, SlotLayout};
 use prt_bake::progress::Silent;
 use prt_bake::reference::render_true;
@@ -65,11 +66,20 @@ fn render_reference(
     spp: u32,
     seed: u64,
 ) -> Image {
-    render_true(scene, reflections, size.0, size.1, spp, seed, None)
-        .pixels
-        .iter()
-        .map(|p| p.to_array())
-        .collect()
+    render_true(
+        scene,
+        reflections,
+        size.0,
+        size.1,
+        spp,
+        DEFAULT_EMISSION_OVERSAMPLING,
+        seed,
+        None,
+    )
+    .pixels
+    .iter()
+    .map(|p| p.to_array())
+    .collect()
 }
 
 /// How far the image mean may be off: standard errors, and a relative allowance for the
@@ -104,6 +114,7 @@ fn check(case: &Case) {
                 width: case.size.0,
                 height: case.size.1,
                 spp: case.spp,
+                emission_oversampling: config.emission_oversampling,
                 reflections: config.reflections,
                 seed,
                 precision: Precision::F32,

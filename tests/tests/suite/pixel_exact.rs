@@ -33,11 +33,19 @@ fn projected_reference(
     );
     let model = BakeModel::new(scene, layout);
     let coeff = layout.coefficients_per_material(edits);
-    render(&integ, &model, &coeff, opts.spp, opts.seed, None)
-        .pixels
-        .iter()
-        .map(|p| p.to_array())
-        .collect()
+    render(
+        &integ,
+        &model,
+        &coeff,
+        opts.spp,
+        opts.emission_oversampling,
+        opts.seed,
+        None,
+    )
+    .pixels
+    .iter()
+    .map(|p| p.to_array())
+    .collect()
 }
 
 fn check_exact(scene: &Scene, reflections: u32, expect_channels: u32) {
