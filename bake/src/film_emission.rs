@@ -23,7 +23,7 @@ use crate::sampling::PixelSampler;
 
 /// Camera samples per path sample, in pixels where what the camera sees directly varies: the
 /// default of the config's `emission_oversampling`. Measured on the comparison's Cornell box
-/// (docs/compare.md, "2026-11-26 (late)").
+/// (docs/compare.md, "2026-11-26 (late night)").
 pub const DEFAULT_EMISSION_OVERSAMPLING: u32 = 8;
 
 /// Corner values differing by more than this share of the largest (in any channel) mark a

@@ -93,7 +93,10 @@ fn the_plan_oversamples_exactly_the_pixels_the_edge_crosses() {
             }
         }
     }
-    assert!(crossed >= 8 && untouched >= 40, "{crossed} crossed, {untouched} untouched");
+    assert!(
+        crossed >= 8 && untouched >= 40,
+        "{crossed} crossed, {untouched} untouched"
+    );
     assert_eq!(integ.emission_plan(1).oversampled_pixels(), 0);
 }
 
