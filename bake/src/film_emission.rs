@@ -27,10 +27,13 @@ use crate::sampling::PixelSampler;
 pub const DEFAULT_EMISSION_OVERSAMPLING: u32 = 8;
 
 /// Corner values differing by more than this share of the largest (in any channel) mark a
-/// pixel whose emission varies. Why not any difference: a smooth environment map differs
-/// slightly between any two corners, and oversampling a pixel whose value hardly changes
-/// across it buys nothing.
-const VARIES_ABOVE: f32 = 0.01;
+/// pixel whose emission varies. An emitter's or the sky's edge against a surface differs by
+/// all of it; a smooth sky by a few percent, which stratified film points already integrate
+/// almost exactly. Measured on `scenes/vitrine` rendered per pixel (sky map, 128 x 128,
+/// 64 spp): 1 % flagged a third of the pixels, for 28 % more time and the same noise; 5 %,
+/// 10 % and 25 % flagged 3 %, 2 % and 2 % (the objects' outlines), the same noise, no
+/// measurable time. On the comparison's Cornell box 1 % and 25 % flag the same pixels.
+const VARIES_ABOVE: f32 = 0.25;
 
 /// Which pixels take extra emission samples (see the module comment).
 #[derive(Clone, Debug)]
