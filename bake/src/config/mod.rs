@@ -718,6 +718,15 @@ mod tests {
                 "{e}"
             );
         }
+        // Values of the wrong type: TOML's error, quoting the line with the key.
+        for garbage in ["\"many\"", "-3", "2.5", "[2]"] {
+            let e = parse(&format!(
+                "scene = \"x.gltf\"\nemission_oversampling = {garbage}"
+            ))
+            .unwrap_err()
+            .to_string();
+            assert!(e.contains("emission_oversampling"), "{garbage}: {e}");
+        }
         let e = parse("scene = \"x.gltf\"\nmode = \"vertex\"\nemission_oversampling = 2")
             .unwrap_err()
             .to_string();
