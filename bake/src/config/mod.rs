@@ -688,6 +688,11 @@ mod tests {
         BakeConfig::parse(text, "/scenes/x/bake.toml")
     }
 
+    /// The message of the error `text` must give.
+    fn error(text: &str) -> String {
+        parse(text).unwrap_err().to_string()
+    }
+
     #[test]
     fn defaults_and_paths() {
         let c = parse("scene = \"x.gltf\"").unwrap();
@@ -708,11 +713,9 @@ mod tests {
         let c = parse("scene = \"x.gltf\"\nemission_oversampling = 1").expect("1 turns it off");
         assert_eq!(c.emission_oversampling, 1);
         for bad in [0, MAX_EMISSION_OVERSAMPLING + 1] {
-            let e = parse(&format!(
+            let e = error(&format!(
                 "scene = \"x.gltf\"\nemission_oversampling = {bad}"
-            ))
-            .unwrap_err()
-            .to_string();
+            ));
             assert!(
                 e.contains("`emission_oversampling`") && e.contains("outside"),
                 "{e}"
@@ -720,16 +723,12 @@ mod tests {
         }
         // Values of the wrong type: TOML's error, quoting the line with the key.
         for garbage in ["\"many\"", "-3", "2.5", "[2]"] {
-            let e = parse(&format!(
+            let e = error(&format!(
                 "scene = \"x.gltf\"\nemission_oversampling = {garbage}"
-            ))
-            .unwrap_err()
-            .to_string();
+            ));
             assert!(e.contains("emission_oversampling"), "{garbage}: {e}");
         }
-        let e = parse("scene = \"x.gltf\"\nmode = \"vertex\"\nemission_oversampling = 2")
-            .unwrap_err()
-            .to_string();
+        let e = error("scene = \"x.gltf\"\nmode = \"vertex\"\nemission_oversampling = 2");
         assert!(
             e.contains("`emission_oversampling`") && e.contains("per-vertex"),
             "{e}"
@@ -755,40 +754,24 @@ mod tests {
 
     #[test]
     fn errors_name_the_key() {
-        let e = parse("scene = \"x.gltf\"\nwidht = 3")
-            .unwrap_err()
-            .to_string();
+        let e = error("scene = \"x.gltf\"\nwidht = 3");
         assert!(e.contains("widht"), "{e}");
-        let e = parse("scene = \"x.gltf\"\nwidth = 0")
-            .unwrap_err()
-            .to_string();
+        let e = error("scene = \"x.gltf\"\nwidth = 0");
         assert!(e.contains("`width`"), "{e}");
-        let e = parse("scene = \"x.gltf\"\n[materials.m]\nkd = [1, nan, 0]")
-            .unwrap_err()
-            .to_string();
+        let e = error("scene = \"x.gltf\"\n[materials.m]\nkd = [1, nan, 0]");
         assert!(e.contains("materials.m.kd"), "{e}");
-        let e = parse("scene = \"x.gltf\"\n[materials.m]\nkd = [1, 0]")
-            .unwrap_err()
-            .to_string();
+        let e = error("scene = \"x.gltf\"\n[materials.m]\nkd = [1, 0]");
         assert!(e.contains("kd"), "{e}");
-        let e = parse("scene = \"x.gltf\"\n[materials.m]\nfamily = \"ggx\"\nshininess = 3")
-            .unwrap_err()
-            .to_string();
+        let e = error("scene = \"x.gltf\"\n[materials.m]\nfamily = \"ggx\"\nshininess = 3");
         assert!(e.contains("materials.m.shininess"), "{e}");
-        let e = parse("scene = \"x.gltf\"\n[environment]\ncolor = 1\nmap = \"a.exr\"")
-            .unwrap_err()
-            .to_string();
+        let e = error("scene = \"x.gltf\"\n[environment]\ncolor = 1\nmap = \"a.exr\"");
         assert!(e.contains("not both"), "{e}");
-        let e = parse("scene = \"x.gltf\"\n[environment]\ncolor = 1\nrotation = 30")
-            .unwrap_err()
-            .to_string();
+        let e = error("scene = \"x.gltf\"\n[environment]\ncolor = 1\nrotation = 30");
         assert!(
             e.contains("environment.rotation") && e.contains("only a `map`"),
             "{e}"
         );
-        let e = parse("scene = \"x.gltf\"\n[environment]\nmap = \"a.exr\"\nrotation = 400")
-            .unwrap_err()
-            .to_string();
+        let e = error("scene = \"x.gltf\"\n[environment]\nmap = \"a.exr\"\nrotation = 400");
         assert!(
             e.contains("environment.rotation") && e.contains("400"),
             "{e}"
