@@ -63,8 +63,8 @@ pub enum Kernel {
     Scalar,
 }
 
-/// A relit image and what it cost.
-#[derive(Clone, Debug)]
+/// A relit image and what it cost. The default is an empty frame, to render into.
+#[derive(Clone, Debug, Default)]
 pub struct Frame {
     /// Image width in pixels.
     pub width: u32,
@@ -88,6 +88,8 @@ pub struct Relighter {
     /// per band, then the list's length): found once here rather than by binary search in
     /// every frame.
     band_starts: Vec<Vec<usize>>,
+    /// Per group, its pixel list as runs of consecutive image pixels, cut at band edges.
+    runs: Vec<GroupRuns>,
 }
 
 impl Relighter {
@@ -135,6 +137,7 @@ impl Relighter {
         let (w, h) = (meta.width as usize, meta.height as usize);
         file.tensor(names::EMISSION)?.require_shape(&[h, w, 3])?;
         let mut band_starts = Vec::with_capacity(meta.groups.len());
+        let mut runs = Vec::with_capacity(meta.groups.len());
         for (g, gm) in meta.groups.iter().enumerate() {
             let Some(m) = meta.materials.get(gm.material as usize) else {
                 return Err(schema(format!(
@@ -180,12 +183,12 @@ impl Relighter {
                 )));
             }
             let band = band_pixels(w);
-            band_starts.push(
-                (0..h.div_ceil(BAND_ROWS))
-                    .map(|b| indices.partition_point(|&i| (i as usize) < b * band))
-                    .chain([p])
-                    .collect(),
-            );
+            let starts: Vec<usize> = (0..h.div_ceil(BAND_ROWS))
+                .map(|b| indices.partition_point(|&i| (i as usize) < b * band))
+                .chain([p])
+                .collect();
+            runs.push(GroupRuns::new(indices, &starts));
+            band_starts.push(starts);
             let t = file.tensor(&names::transfer(g))?;
             t.require_shape(&[expect, p])?;
             let stored = match meta.precision {
@@ -213,6 +216,7 @@ impl Relighter {
             materials,
             kernel: Kernel::Auto,
             band_starts,
+            runs,
         })
     }
 
@@ -263,8 +267,19 @@ impl Relighter {
     ///
     /// The image is cut into bands of rows processed in parallel; each band contracts, for
     /// every group, the rows of its own pixels (groups store pixels in ascending order) and
-    /// adds them into its part of the image, so no thread writes another's pixels.
+    /// adds them into its part of the image, so no thread writes another's pixels. To render
+    /// many frames, use [`Relighter::render_into`], which reuses the frame's memory.
     pub fn render(&self, variant: Variant) -> Result<Frame, RuntimeError> {
+        let mut frame = Frame::default();
+        self.render_into(variant, &mut frame)?;
+        Ok(frame)
+    }
+
+    /// [`Relighter::render`] into `frame`, whose contents are replaced and whose pixel memory
+    /// is reused: an image the size of the last one is overwritten in place, never cleared
+    /// first (every pixel starts from its emission), which saves a pass over the image per
+    /// frame. On error `frame` is left as it was.
+    pub fn render_into(&self, variant: Variant, frame: &mut Frame) -> Result<(), RuntimeError> {
         if variant == Variant::Compressed && !self.has_compressed() {
             return Err(RuntimeError::NoCompressed);
         }
@@ -279,9 +294,8 @@ impl Relighter {
             let m = &self.meta.materials[gm.material as usize];
             let w = group_weights(gm, m, &coeff, reflections, channels, self.meta.tint);
             let len = gm.row_len as usize;
-            let pixels = self.file.tensor(&names::pixels(g))?.as_u32()?;
-            bytes_read += (pixels.len() * 4) as u64;
-            let np = pixels.len();
+            // The pixel list itself is not read: its runs were found at open.
+            let np = gm.pixels as usize;
             let columns = match variant {
                 Variant::Full => {
                     let t = self.file.tensor(&names::transfer(g))?;
@@ -309,71 +323,118 @@ impl Relighter {
                     Columns::F32(cols, base)
                 }
             };
-            groups.push(GroupFrame { pixels, columns });
+            groups.push(columns);
         }
         let (width, height) = (self.meta.width as usize, self.meta.height as usize);
-        let mut pixels = vec![[0.0f32; 3]; width * height];
+        let pixels = &mut frame.pixels;
+        // Only a new size writes the image here; otherwise the bands overwrite it below.
+        pixels.resize(width * height, [0.0; 3]);
         let simd = self.kernel == Kernel::Auto;
         let band = band_pixels(width);
         pixels
             .par_chunks_mut(band)
             .enumerate()
             .for_each(|(b, out)| {
-                let lo = (b * band) as u32;
-                let hi = lo + out.len() as u32;
+                let lo = b * band;
                 // Each band copies its own emission (in parallel, and while the band is in
                 // cache: a serial copy of the whole image took 8 % of a frame, and a parallel
-                // one before the bands 10-20 %).
+                // one before the bands 10-20 %). Every pixel of the band is written here, so
+                // what the frame held before is never read.
+                let n = out.len();
                 let flat = out.as_flattened_mut();
-                if let Some(e) = emission.get(3 * lo as usize..3 * hi as usize) {
+                if let Some(e) = emission.get(3 * lo..3 * (lo + n)) {
                     flat.copy_from_slice(e);
                 }
                 let mut acc: [Vec<f32>; 3] = Default::default();
-                for (g, starts) in groups.iter().zip(&self.band_starts) {
+                for ((g, starts), gr) in groups.iter().zip(&self.band_starts).zip(&self.runs) {
                     let (first, last) = (starts[b], starts[b + 1]);
+                    let runs = gr.band(b);
+                    let mut r = 0;
                     let mut i = first;
                     while i < last {
                         let end = (i + BLOCK).min(last);
                         g.contract_block(i, end, simd, &mut acc);
                         // The block's pixels are a few runs of consecutive pixels (a
-                        // group's span in each row): each run is added as one stretch of
-                        // the image, no index per pixel.
-                        let ids = &g.pixels[i..end];
-                        let mut k = 0;
-                        while k < ids.len() {
-                            let len = run_len(&ids[k..]);
-                            let at = (ids[k] - lo) as usize;
-                            add_run(&mut out[at..at + len], &acc, k, simd);
-                            k += len;
+                        // group's span in each row): each run's part in the block is added
+                        // as one stretch of the image, no index per pixel.
+                        while let Some(run) = runs.get(r).filter(|run| run.first < end) {
+                            let (from, to) = (run.first.max(i), run.end().min(end));
+                            let at = run.pixel + (from - run.first) - lo;
+                            add_run(&mut out[at..at + (to - from)], &acc, from - i, simd);
+                            if run.end() > end {
+                                break;
+                            }
+                            r += 1;
                         }
                         i = end;
                     }
                 }
             });
         debug_assert_eq!(pixels.len(), width * height);
-        Ok(Frame {
-            width: self.meta.width,
-            height: self.meta.height,
-            pixels,
-            seconds: start.elapsed().as_secs_f64(),
-            bytes_read,
-        })
+        frame.width = self.meta.width;
+        frame.height = self.meta.height;
+        frame.seconds = start.elapsed().as_secs_f64();
+        frame.bytes_read = bytes_read;
+        Ok(())
     }
 }
 
-/// How many of `ids` (strictly ascending, not empty) are consecutive from the first, by
-/// binary search: `ids[j] - ids[0] >= j` with equality exactly up to the run's end.
-fn run_len(ids: &[u32]) -> usize {
-    let (mut lo, mut hi) = (1, ids.len());
-    while lo < hi {
-        let mid = (lo + hi) / 2;
-        if (ids[mid] - ids[0]) as usize == mid {
-            lo = mid + 1;
-        } else {
-            hi = mid;
-        }
+/// A stretch of a group's pixel list whose image pixels are consecutive.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Run {
+    /// Index of its first pixel in the group's list.
+    first: usize,
+    /// Its first image pixel.
+    pixel: usize,
+    len: usize,
+}
+
+impl Run {
+    fn end(&self) -> usize {
+        self.first + self.len
     }
-    lo
+}
+
+/// A group's pixel list cut into [`Run`]s once, when the file is opened (finding them in every
+/// frame, by binary search over the list, took a tenth of a frame: the searches' loads missed
+/// the cache).
+#[derive(Debug)]
+struct GroupRuns {
+    runs: Vec<Run>,
+    /// Where each band's runs start in `runs` (one entry per band, then `runs.len()`).
+    band_starts: Vec<usize>,
+}
+
+impl GroupRuns {
+    /// The runs of the strictly ascending `indices`, cut at the band starts `starts` (one per
+    /// band into `indices`, then its length), so that no run crosses a band.
+    fn new(indices: &[u32], starts: &[usize]) -> GroupRuns {
+        let mut runs = Vec::new();
+        let mut band_starts = Vec::with_capacity(starts.len());
+        for pair in starts.windows(2) {
+            band_starts.push(runs.len());
+            let mut k = pair[0];
+            while k < pair[1] {
+                let first = k;
+                k += 1;
+                while k < pair[1] && indices[k] == indices[k - 1] + 1 {
+                    k += 1;
+                }
+                runs.push(Run {
+                    first,
+                    pixel: indices[first] as usize,
+                    len: k - first,
+                });
+            }
+        }
+        band_starts.push(runs.len());
+        GroupRuns { runs, band_starts }
+    }
+
+    /// The runs of band `b`.
+    fn band(&self, b: usize) -> &[Run] {
+        &self.runs[self.band_starts[b]..self.band_starts[b + 1]]
+    }
 }
 
 /// Image rows per parallel band.
@@ -387,13 +448,6 @@ fn band_pixels(width: usize) -> usize {
 /// Pixels contracted together: their three accumulators (12 KB) stay in L1 while the columns
 /// stream, each in runs of a block's pixels.
 const BLOCK: usize = 1024;
-
-/// One group's data for a frame.
-struct GroupFrame<'a> {
-    /// The group's pixels, ascending.
-    pixels: &'a [u32],
-    columns: Columns<'a>,
-}
 
 /// A group's stored columns with a nonzero weight (one per stored element, or per low-rank
 /// component), each with its weight per output channel; a column's value i is the group's
@@ -422,7 +476,7 @@ fn element_columns<'a, T>(t: &'a [T], w: &[f32], scale: f32, pixels: usize) -> V
         .collect()
 }
 
-impl GroupFrame<'_> {
+impl Columns<'_> {
     /// Radiance of the group's pixels `i0..i1` (at most [`BLOCK`]), per channel, into `acc`;
     /// `simd` allows the vector kernels.
     fn contract_block(&self, i0: usize, i1: usize, simd: bool, acc: &mut [Vec<f32>; 3]) {
@@ -431,7 +485,7 @@ impl GroupFrame<'_> {
             // Every value is written by the kernel: no clearing needed.
             a.resize(n, 0.0);
         }
-        match &self.columns {
+        match self {
             Columns::F32(cols, init) => tiles_f32(cols, i0, *init, simd, acc),
             Columns::F16(cols) => tiles_f16(cols, i0, [0.0; 3], simd, acc),
         }

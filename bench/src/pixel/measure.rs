@@ -143,6 +143,8 @@ impl Pca {
 pub(crate) struct Relit {
     pub(crate) r: Relighter,
     pub(crate) reset: Vec<MaterialOverride>,
+    /// The last frame, whose memory the next one reuses (as an interactive viewer would).
+    frame: prt_runtime::Frame,
 }
 
 impl Relit {
@@ -168,7 +170,11 @@ impl Relit {
                 }
             }
         }
-        Ok(Relit { r, reset })
+        Ok(Relit {
+            r,
+            reset,
+            frame: prt_runtime::Frame::default(),
+        })
     }
 
     pub(crate) fn set(&mut self, s: &Setting) -> Result<()> {
@@ -180,13 +186,14 @@ impl Relit {
         Ok(())
     }
 
-    pub(crate) fn frame(&mut self, s: &Setting, v: Variant) -> Result<prt_runtime::Frame> {
+    pub(crate) fn frame(&mut self, s: &Setting, v: Variant) -> Result<&prt_runtime::Frame> {
         self.set(s)?;
-        Ok(self.r.render(v)?)
+        self.r.render_into(v, &mut self.frame)?;
+        Ok(&self.frame)
     }
 
     pub(crate) fn image(&mut self, s: &Setting, v: Variant) -> Result<Vec<[f32; 3]>> {
-        Ok(self.frame(s, v)?.pixels)
+        Ok(self.frame(s, v)?.pixels.clone())
     }
 }
 

@@ -147,7 +147,7 @@ fn run(args: Args) -> Result<()> {
     let mut frame = r.render(variant)?;
     times.push(frame.seconds);
     for _ in 1..args.repeat {
-        frame = r.render(variant)?;
+        r.render_into(variant, &mut frame)?;
         times.push(frame.seconds);
     }
     times.sort_by(f64::total_cmp);

@@ -78,7 +78,7 @@ fn frames_report_the_bytes_they_read() {
     let s = Synthetic::new(3, Some(2), 3);
     let (_dir, r) = open(&s, Precision::F32);
     let emission = (W * H * 3 * 4) as u64;
-    let pixels: u64 = s.groups.iter().map(|g| g.pixels.len() as u64 * 4).sum();
+    // The pixel lists are not read per frame: their runs are found when the file is opened.
     let full: u64 = s.groups.iter().map(|g| g.transfer.len() as u64 * 4).sum();
     let low: u64 = s
         .groups
@@ -89,13 +89,13 @@ fn frames_report_the_bytes_they_read() {
         })
         .sum();
     let f = r.render(Variant::Full).expect("render");
-    assert_eq!(f.bytes_read, emission + pixels + full);
+    assert_eq!(f.bytes_read, emission + full);
     assert!(f.seconds >= 0.0 && f.seconds.is_finite());
     let c = r.render(Variant::Compressed).expect("render");
-    assert_eq!(c.bytes_read, emission + pixels + low);
+    assert_eq!(c.bytes_read, emission + low);
     let (_dir16, r16) = open(&s, Precision::F16);
     let h = r16.render(Variant::Full).expect("render");
-    assert_eq!(h.bytes_read, emission + pixels + full / 2);
+    assert_eq!(h.bytes_read, emission + full / 2);
 }
 
 #[test]
@@ -138,5 +138,46 @@ fn groups_smaller_than_a_tile_relight_exactly() {
         let f = r.render(Variant::Full).expect("render");
         let err = max_rel_err(&f.pixels, &expect);
         assert!(err < 2e-6, "{kernel:?}: max error {err:e}");
+    }
+}
+
+#[test]
+fn runs_across_blocks_and_bands_relight_exactly() {
+    // 160 wide: a band of 8 rows holds 1280 pixels, so the wall's runs of 140 cross the
+    // contraction blocks of 1024, and the paint's run through rows 14-16 crosses a band's edge.
+    let s = Synthetic::spans(160, 20, 21);
+    let (_dir, mut r) = open(&s, Precision::F32);
+    let expect = s.relight(&s.params(), false, None);
+    for kernel in [Kernel::Auto, Kernel::Scalar] {
+        r.set_kernel(kernel);
+        let f = r.render(Variant::Full).expect("render");
+        let err = max_rel_err(&f.pixels, &expect);
+        assert!(err < 2e-6, "{kernel:?}: max error {err:e}");
+    }
+}
+
+#[test]
+fn render_into_overwrites_whatever_the_frame_held() {
+    // A reused frame is overwritten, never cleared first: stale or poisoned pixels of the same
+    // size must not leak into the next frame, and a frame of another size is resized.
+    let s = Synthetic::spans(160, 20, 22);
+    let (_dir, r) = open(&s, Precision::F32);
+    let fresh = r.render(Variant::Full).expect("render");
+    for held in [vec![[f32::NAN; 3]; 160 * 20], vec![[7.0; 3]; 5], Vec::new()] {
+        let mut frame = prt_runtime::Frame {
+            pixels: held,
+            ..Default::default()
+        };
+        r.render_into(Variant::Full, &mut frame)
+            .expect("render into");
+        assert_eq!((frame.width, frame.height), (160, 20));
+        assert!(
+            frame.pixels.iter().flatten().map(|v| v.to_bits()).eq(fresh
+                .pixels
+                .iter()
+                .flatten()
+                .map(|v| v.to_bits())),
+            "render_into differs from render"
+        );
     }
 }

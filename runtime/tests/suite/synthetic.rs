@@ -50,6 +50,8 @@ pub struct Group {
 /// A synthetic bake: metadata and tensors, editable before writing.
 #[derive(Clone)]
 pub struct Synthetic {
+    /// Width and height the data were made for (the metadata's may be corrupted by a test).
+    pub size: (u32, u32),
     pub meta: PixelBakeMeta,
     pub emission: Vec<f32>,
     pub groups: Vec<Group>,
@@ -108,6 +110,44 @@ impl Synthetic {
     /// global slots, `channels` 1 or 3, one group per material over interleaved pixel sets
     /// (the GGX group spans every band; a pixel may be in no group), optionally low-rank.
     pub fn new(channels: u32, compressed_rank: Option<u32>, seed: u64) -> Synthetic {
+        let npix = W * H;
+        let sets = [
+            (0..npix).filter(|p| p % 3 == 0).collect(),
+            (0..npix).filter(|p| p % 3 == 1).collect(),
+            (0..npix).filter(|p| p % 3 == 2 && p % 7 != 0).collect(),
+        ];
+        Synthetic::with_pixels(W, H, sets, channels, compressed_rank, seed)
+    }
+
+    /// A gray bake of `width` x `height` whose groups are long runs of consecutive pixels:
+    /// the wall's spans of 140 pixels per row (more than a block of a band, when a band has
+    /// more than 1024), the paint's row ends plus two whole rows (one run across a band's
+    /// edge), and the metal on every seventh pixel, overlapping both.
+    pub fn spans(width: u32, height: u32, seed: u64) -> Synthetic {
+        let npix = width * height;
+        let (x, row) = (|p: &u32| p % width, |p: &u32| p / width);
+        let sets = [
+            (0..npix)
+                .filter(|p| x(p) < 140 && !matches!(row(p), 15 | 16))
+                .collect(),
+            (0..npix)
+                .filter(|p| x(p) >= 140 || matches!(row(p), 15 | 16))
+                .collect(),
+            (0..npix).filter(|p| p % 7 == 0).collect(),
+        ];
+        Synthetic::with_pixels(width, height, sets, 1, None, seed)
+    }
+
+    /// The three materials of [`Synthetic::new`] with the given pixel sets (ascending), one
+    /// group each.
+    fn with_pixels(
+        width: u32,
+        height: u32,
+        sets: [Vec<u32>; 3],
+        channels: u32,
+        compressed_rank: Option<u32>,
+        seed: u64,
+    ) -> Synthetic {
         let materials = vec![
             material(
                 "wall",
@@ -138,31 +178,15 @@ impl Synthetic {
             ),
         ];
         let mut rng = Lcg::new(seed);
-        let npix = (W * H) as usize;
+        let npix = (width * height) as usize;
         let emission: Vec<f32> = (0..npix * 3).map(|_| rng.uniform(0.0, 0.2)).collect();
-        // (material, pixel set, active global slots)
-        let sets: [(u32, Vec<u32>, Vec<u32>); 3] = [
-            (
-                0,
-                (0..npix as u32).filter(|p| p % 3 == 0).collect(),
-                vec![0, 1, 2, 3, 4],
-            ),
-            (
-                1,
-                (0..npix as u32).filter(|p| p % 3 == 1).collect(),
-                vec![1, 3],
-            ),
-            (
-                2,
-                (0..npix as u32)
-                    .filter(|p| p % 3 == 2 && p % 7 != 0)
-                    .collect(),
-                vec![0, 2, 4],
-            ),
-        ];
+        // Per material, its active global slots.
+        let active: [Vec<u32>; 3] = [vec![0, 1, 2, 3, 4], vec![1, 3], vec![0, 2, 4]];
         let groups = sets
             .into_iter()
-            .map(|(m, pixels, active)| {
+            .zip(active)
+            .zip(0u32..)
+            .map(|((pixels, active), m)| {
                 let slots = materials[m as usize].slots.len();
                 let len = row_len(slots, active.len(), REFLECTIONS as usize, channels as usize);
                 let p = pixels.len();
@@ -192,10 +216,11 @@ impl Synthetic {
             })
             .collect();
         Synthetic {
+            size: (width, height),
             meta: PixelBakeMeta {
                 pixel_schema_version: PIXEL_SCHEMA_VERSION,
-                width: W,
-                height: H,
+                width,
+                height,
                 spp: 1,
                 emission_oversampling: Some(8),
                 reflections: REFLECTIONS,
@@ -252,10 +277,11 @@ impl Synthetic {
             }
         }
         let mut w = BakeWriter::new();
-        // The emission's shape is its own (W x H), whatever the metadata says.
+        // The emission's shape is its own (the size it was made for), whatever the metadata
+        // says.
         w.add_f32(
             names::EMISSION,
-            &[H as usize, W as usize, 3],
+            &[self.size.1 as usize, self.size.0 as usize, 3],
             &self.emission,
         )
         .expect("emission");
