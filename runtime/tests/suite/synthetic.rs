@@ -11,8 +11,9 @@ use prt_formats::pixel::{
 };
 use prt_formats::{BakeWriter, Family};
 
-/// Image size: more pixels than one contraction block (256) and than one band of 8 rows, with
-/// a width that is not a multiple of either.
+/// Image size of [`Synthetic::new`]: more pixels than one band of 8 rows, with a width that is
+/// not a multiple of a tile (bands of more than one contraction block of 1024 pixels are
+/// [`Synthetic::spans`]' job).
 pub const W: u32 = 37;
 pub const H: u32 = 23;
 pub const REFLECTIONS: u32 = 2;
