@@ -299,11 +299,21 @@ impl Relighter {
             let columns = match variant {
                 Variant::Full => {
                     let t = self.file.tensor(&names::transfer(g))?;
-                    bytes_read += t.bytes().len() as u64;
-                    match t.dtype() {
-                        Dtype::F16 => Columns::F16(element_columns(t.as_f16()?, &w, gm.scale, np)),
-                        _ => Columns::F32(element_columns(t.as_f32()?, &w, 1.0, np), [0.0; 3]),
-                    }
+                    // Only the columns with a nonzero weight are read.
+                    let (columns, read) = match t.dtype() {
+                        Dtype::F16 => {
+                            let cols = element_columns(t.as_f16()?, &w, gm.scale, np);
+                            let read = cols.len() * np * 2;
+                            (Columns::F16(cols), read)
+                        }
+                        _ => {
+                            let cols = element_columns(t.as_f32()?, &w, 1.0, np);
+                            let read = cols.len() * np * 4;
+                            (Columns::F32(cols, [0.0; 3]), read)
+                        }
+                    };
+                    bytes_read += read as u64;
+                    columns
                 }
                 Variant::Compressed => {
                     let k = gm.compressed_rank.unwrap_or(0) as usize;

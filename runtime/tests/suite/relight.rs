@@ -181,3 +181,45 @@ fn render_into_overwrites_whatever_the_frame_held() {
         );
     }
 }
+
+#[test]
+fn columns_of_zero_weight_are_neither_read_nor_counted() {
+    // paint.kd = 0 zeroes every element of the paint group and the other groups' terms that
+    // pass through paint's slot: those columns are skipped, and the byte count says so.
+    let s = Synthetic::new(3, None, 4);
+    let (_dir, mut r) = open(&s, Precision::F32);
+    r.apply(&prt_formats::parse_override("paint.kd=0,0,0").expect("edit"))
+        .expect("apply");
+    let mut p = s.params();
+    p[1].kd = [0.0; 3];
+    let coeff = s.coefficients(&p);
+    let read: u64 = s
+        .groups
+        .iter()
+        .map(|g| {
+            let m = &s.meta.materials[g.meta.material as usize];
+            let w = prt_formats::pixel::group_weights(
+                &g.meta,
+                m,
+                &coeff,
+                s.meta.reflections as usize,
+                s.meta.channels as usize,
+                s.meta.tint,
+            );
+            let len = g.meta.row_len as usize;
+            let nonzero = (0..len)
+                .filter(|&e| (0..3).any(|c| w[c * len + e] != 0.0))
+                .count();
+            (nonzero * g.pixels.len() * 4) as u64
+        })
+        .sum();
+    let all: u64 = s.groups.iter().map(|g| g.transfer.len() as u64 * 4).sum();
+    assert!(
+        read < all,
+        "the edit should zero some columns ({read} of {all} bytes)"
+    );
+    let f = r.render(Variant::Full).expect("render");
+    assert_eq!(f.bytes_read, (W * H * 3 * 4) as u64 + read);
+    let err = max_rel_err(&f.pixels, &s.relight(&p, false, None));
+    assert!(err < 2e-6, "max error {err:e}");
+}
