@@ -19,8 +19,10 @@ const TILE: usize = 8;
 const PREFETCH_LINES: usize = 8;
 
 /// `acc[c][k] = init[c] + sum_cols w[c] * col[i0 + k]` for k < acc[0].len(), reading each
-/// stored value once; `simd` allows the vector kernel.
-pub(crate) fn tiles_f32(
+/// stored value once; `simd` allows the vector kernel. With `READS_ONLY`, the same values are
+/// read in the same order but only summed, unweighted, into `acc[0]` (a measurement of what
+/// the memory traffic alone costs, see `Relighter::time_reads`).
+pub(crate) fn tiles_f32<const READS_ONLY: bool>(
     cols: &[Column<'_, f32>],
     i0: usize,
     init: [f32; 3],
@@ -30,15 +32,15 @@ pub(crate) fn tiles_f32(
     #[cfg(target_arch = "x86_64")]
     if simd && std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU supports AVX2 (checked just above).
-        unsafe { x86::tiles_f32(cols, i0, init, acc) };
+        unsafe { x86::tiles_f32::<READS_ONLY>(cols, i0, init, acc) };
         return;
     }
     let _ = simd;
-    tiles_portable(cols, i0, 0, init, acc, |v| v);
+    tiles_portable::<_, READS_ONLY>(cols, i0, 0, init, acc, |v| v);
 }
 
 /// [`tiles_f32`] over f16 values (converted as they are read).
-pub(crate) fn tiles_f16(
+pub(crate) fn tiles_f16<const READS_ONLY: bool>(
     cols: &[Column<'_, f16>],
     i0: usize,
     init: [f32; 3],
@@ -51,11 +53,11 @@ pub(crate) fn tiles_f16(
         && std::arch::is_x86_feature_detected!("f16c")
     {
         // SAFETY: the CPU supports AVX2 and F16C (checked just above).
-        unsafe { x86::tiles_f16(cols, i0, init, acc) };
+        unsafe { x86::tiles_f16::<READS_ONLY>(cols, i0, init, acc) };
         return;
     }
     let _ = simd;
-    tiles_portable(cols, i0, 0, init, acc, f16::to_f32);
+    tiles_portable::<_, READS_ONLY>(cols, i0, 0, init, acc, f16::to_f32);
 }
 
 /// Adds pixels `k..k + out.len()` of a block's channel-major sums `acc` to a stretch of
@@ -82,7 +84,7 @@ fn add_run_portable(out: &mut [[f32; 3]], a0: &[f32], a1: &[f32], a2: &[f32]) {
 /// The portable kernel from pixel `from` of the block on (the vector kernels leave it the
 /// pixels past their last whole tile).
 #[inline(always)]
-fn tiles_portable<T: Copy>(
+fn tiles_portable<T: Copy, const READS_ONLY: bool>(
     cols: &[Column<'_, T>],
     i0: usize,
     from: usize,
@@ -98,6 +100,10 @@ fn tiles_portable<T: Copy>(
         for (col, w) in cols {
             for (l, &v) in col[i0 + k..i0 + k + TILE].iter().enumerate() {
                 let x = one(v);
+                if READS_ONLY {
+                    r[0][l] += x;
+                    continue;
+                }
                 r[0][l] += w[0] * x;
                 r[1][l] += w[1] * x;
                 r[2][l] += w[2] * x;
@@ -112,6 +118,10 @@ fn tiles_portable<T: Copy>(
         let mut r = init;
         for (col, w) in cols {
             let x = one(col[i0 + k]);
+            if READS_ONLY {
+                r[0] += x;
+                continue;
+            }
             r[0] += w[0] * x;
             r[1] += w[1] * x;
             r[2] += w[2] * x;
@@ -147,38 +157,38 @@ mod x86 {
     const CHUNK: usize = 8;
 
     #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn tiles_f32(
+    pub(super) unsafe fn tiles_f32<const READS_ONLY: bool>(
         cols: &[Column<'_, f32>],
         i0: usize,
         init: [f32; 3],
         acc: &mut [Vec<f32>; 3],
     ) {
         // SAFETY (the closure): the slice holds TILE f32 values, two registers' worth.
-        let from = tiles(cols, i0, init, acc, |s: &[f32]| unsafe {
+        let from = tiles::<_, READS_ONLY>(cols, i0, init, acc, |s: &[f32]| unsafe {
             [
                 _mm256_loadu_ps(s.as_ptr()),
                 _mm256_loadu_ps(s.as_ptr().add(8)),
             ]
         });
-        tiles_portable(cols, i0, from, init, acc, |v| v);
+        tiles_portable::<_, READS_ONLY>(cols, i0, from, init, acc, |v| v);
     }
 
     #[target_feature(enable = "avx2,f16c")]
-    pub(super) unsafe fn tiles_f16(
+    pub(super) unsafe fn tiles_f16<const READS_ONLY: bool>(
         cols: &[Column<'_, f16>],
         i0: usize,
         init: [f32; 3],
         acc: &mut [Vec<f32>; 3],
     ) {
         // SAFETY (the closure): the slice holds TILE f16 values (32 bytes); unaligned loads.
-        let from = tiles(cols, i0, init, acc, |s: &[f16]| unsafe {
+        let from = tiles::<_, READS_ONLY>(cols, i0, init, acc, |s: &[f16]| unsafe {
             let p = s.as_ptr() as *const __m128i;
             [
                 _mm256_cvtph_ps(_mm_loadu_si128(p)),
                 _mm256_cvtph_ps(_mm_loadu_si128(p.add(1))),
             ]
         });
-        tiles_portable(cols, i0, from, init, acc, f16::to_f32);
+        tiles_portable::<_, READS_ONLY>(cols, i0, from, init, acc, f16::to_f32);
     }
 
     /// [`crate::contract::add_run`] eight pixels at a time: the three channel vectors are
@@ -216,7 +226,7 @@ mod x86 {
 
     /// The whole tiles of the block; returns where the portable tail starts.
     #[inline(always)]
-    unsafe fn tiles<T>(
+    unsafe fn tiles<T, const READS_ONLY: bool>(
         cols: &[Column<'_, T>],
         i0: usize,
         init: [f32; 3],
@@ -261,6 +271,11 @@ mod x86 {
                 };
                 for (col, w) in chunk {
                     let x = load(&col[i0 + k..i0 + k + TILE]);
+                    if READS_ONLY {
+                        r[0][0] = _mm256_add_ps(r[0][0], x[0]);
+                        r[0][1] = _mm256_add_ps(r[0][1], x[1]);
+                        continue;
+                    }
                     for (c, rc) in r.iter_mut().enumerate() {
                         let wc = _mm256_set1_ps(w[c]);
                         rc[0] = _mm256_add_ps(rc[0], _mm256_mul_ps(wc, x[0]));

@@ -78,6 +78,15 @@ pub struct Frame {
     pub bytes_read: u64,
 }
 
+/// The time of [`Relighter::time_reads`]: a frame's reads without its arithmetic.
+#[derive(Clone, Copy, Debug)]
+pub struct ReadPass {
+    /// Wall-clock time, in seconds.
+    pub seconds: f64,
+    /// Bytes of bake data read (the same count as the frame's [`Frame::bytes_read`]).
+    pub bytes_read: u64,
+}
+
 /// An opened bake file with the current material settings.
 pub struct Relighter {
     file: BakeFile,
@@ -280,6 +289,41 @@ impl Relighter {
     /// first (every pixel starts from its emission), which saves a pass over the image per
     /// frame. On error `frame` is left as it was.
     pub fn render_into(&self, variant: Variant, frame: &mut Frame) -> Result<(), RuntimeError> {
+        self.frame::<false>(variant, frame)
+    }
+
+    /// What a frame's memory traffic alone costs: reads every stored value that
+    /// [`Relighter::render`] reads, in the same order and with the same prefetches, copies the
+    /// emission and adds into the image as it does, but sums the values unweighted instead of
+    /// contracting them with the weights (one add per eight values instead of six multiplies
+    /// and adds). `bench pixel` times it beside the frames, to tell what bounds a frame: the
+    /// memory system serving this access pattern, or the arithmetic. `scratch` is reused
+    /// between calls; what it holds afterwards is not an image of anything.
+    pub fn time_reads(
+        &self,
+        variant: Variant,
+        scratch: &mut Vec<[f32; 3]>,
+    ) -> Result<ReadPass, RuntimeError> {
+        let mut frame = Frame {
+            pixels: std::mem::take(scratch),
+            ..Frame::default()
+        };
+        let done = self.frame::<true>(variant, &mut frame);
+        *scratch = frame.pixels;
+        done?;
+        Ok(ReadPass {
+            seconds: frame.seconds,
+            bytes_read: frame.bytes_read,
+        })
+    }
+
+    /// [`Relighter::render_into`], or with `READS_ONLY` the traffic of one
+    /// ([`Relighter::time_reads`]).
+    fn frame<const READS_ONLY: bool>(
+        &self,
+        variant: Variant,
+        frame: &mut Frame,
+    ) -> Result<(), RuntimeError> {
         if variant == Variant::Compressed && !self.has_compressed() {
             return Err(RuntimeError::NoCompressed);
         }
@@ -363,7 +407,7 @@ impl Relighter {
                     let mut i = first;
                     while i < last {
                         let end = (i + BLOCK).min(last);
-                        g.contract_block(i, end, simd, &mut acc);
+                        g.contract_block::<READS_ONLY>(i, end, simd, &mut acc);
                         // The block's pixels are a few runs of consecutive pixels (a
                         // group's span in each row): each run's part in the block is added
                         // as one stretch of the image, no index per pixel.
@@ -489,15 +533,21 @@ fn element_columns<'a, T>(t: &'a [T], w: &[f32], scale: f32, pixels: usize) -> V
 impl Columns<'_> {
     /// Radiance of the group's pixels `i0..i1` (at most [`BLOCK`]), per channel, into `acc`;
     /// `simd` allows the vector kernels.
-    fn contract_block(&self, i0: usize, i1: usize, simd: bool, acc: &mut [Vec<f32>; 3]) {
+    fn contract_block<const READS_ONLY: bool>(
+        &self,
+        i0: usize,
+        i1: usize,
+        simd: bool,
+        acc: &mut [Vec<f32>; 3],
+    ) {
         let n = i1 - i0;
         for a in acc.iter_mut() {
             // Every value is written by the kernel: no clearing needed.
             a.resize(n, 0.0);
         }
         match self {
-            Columns::F32(cols, init) => tiles_f32(cols, i0, *init, simd, acc),
-            Columns::F16(cols) => tiles_f16(cols, i0, [0.0; 3], simd, acc),
+            Columns::F32(cols, init) => tiles_f32::<READS_ONLY>(cols, i0, *init, simd, acc),
+            Columns::F16(cols) => tiles_f16::<READS_ONLY>(cols, i0, [0.0; 3], simd, acc),
         }
     }
 }

@@ -103,6 +103,7 @@ pub(crate) fn markdown(r: &Report) -> Result<String> {
         ),
         ("pca_seconds", format!("{:.2}", r.pca_seconds)),
         ("relight_table", relight_table(r)),
+        ("reads_table", reads_table(r)),
         ("relight_plot", relight_plot),
         ("ref_half_spp", r.plan.ref_half_spp.to_string()),
         ("ref_spp", (2 * r.plan.ref_half_spp).to_string()),
@@ -293,6 +294,31 @@ fn relight_table(r: &Report) -> String {
             t.median_s / bound,
             t.min_s / (t.bytes_read as f64 / r.bandwidth.best.max(1.0)),
             t.added_error.map_or("-".into(), pct)
+        );
+    }
+    s
+}
+
+/// The uncompressed variants' frames against their reads alone and the bandwidth bound.
+fn reads_table(r: &Report) -> String {
+    let bw = r.bandwidth.median;
+    let mut s = String::from("| variant | bytes read / frame | frame (ms) | reads alone (ms) | bound (ms) | reads alone / bound | frame / reads alone |\n");
+    s += "| --- | --: | --: | --: | --: | --: | --: |\n";
+    for t in &r.relight {
+        let Some(reads) = t.reads_median_s else {
+            continue;
+        };
+        let bound = t.bytes_read as f64 / bw;
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} | {:.2} | {:.2} |",
+            t.label,
+            human_bytes(t.bytes_read),
+            ms(t.median_s),
+            ms(reads),
+            ms(bound),
+            reads / bound,
+            t.median_s / reads
         );
     }
     s

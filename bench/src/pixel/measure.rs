@@ -215,6 +215,9 @@ pub(crate) struct RelightTiming {
     pub(crate) median_s: f64,
     pub(crate) min_s: f64,
     pub(crate) max_s: f64,
+    /// Uncompressed variants: the median time of the frame's reads alone
+    /// (`Relighter::time_reads`), timed right after each of its frames.
+    pub(crate) reads_median_s: Option<f64>,
     /// Largest relative L2 difference to the uncompressed relight over the settings.
     pub(crate) added_error: Option<f64>,
 }
@@ -236,6 +239,8 @@ pub(crate) fn time_variants(
         .map(|v| Relit::open(&v.path))
         .collect::<Result<Vec<_>>>()?;
     let mut times = vec![Vec::with_capacity(frames); runs.len()];
+    let mut reads = vec![Vec::with_capacity(frames); runs.len()];
+    let mut scratch = Vec::new();
     let mut bytes = vec![0u64; runs.len()];
     let mut rates = Vec::new();
     for f in 0..frames + 2 {
@@ -248,6 +253,12 @@ pub(crate) fn time_variants(
             bytes[i] = fr.bytes_read;
             if f >= 2 {
                 times[i].push(fr.seconds);
+            }
+            if v.variant == Variant::Full {
+                let pass = r.r.time_reads(v.variant, &mut scratch)?;
+                if f >= 2 {
+                    reads[i].push(pass.seconds);
+                }
             }
         }
     }
@@ -269,6 +280,7 @@ pub(crate) fn time_variants(
             median_s: median(&times[i]),
             min_s: times[i].iter().copied().fold(f64::INFINITY, f64::min),
             max_s: times[i].iter().copied().fold(0.0, f64::max),
+            reads_median_s: (!reads[i].is_empty()).then(|| median(&reads[i])),
             added_error: (i > 0 && v.variant == Variant::Compressed).then_some(added[i]),
         })
         .collect();

@@ -223,3 +223,36 @@ fn columns_of_zero_weight_are_neither_read_nor_counted() {
     let err = max_rel_err(&f.pixels, &s.relight(&p, false, None));
     assert!(err < 2e-6, "max error {err:e}");
 }
+
+#[test]
+fn time_reads_reads_what_a_frame_reads_and_changes_nothing() {
+    let s = Synthetic::new(3, Some(2), 23);
+    let (_dir, r) = open(&s, Precision::F16);
+    let mut scratch = Vec::new();
+    for v in [Variant::Full, Variant::Compressed] {
+        let before = r.render(v).expect("render");
+        let pass = r.time_reads(v, &mut scratch).expect("reads");
+        assert_eq!(pass.bytes_read, before.bytes_read, "{v:?}");
+        assert!(pass.seconds >= 0.0 && pass.seconds.is_finite());
+        assert_eq!(scratch.len(), before.pixels.len(), "{v:?}: scratch reused");
+        // The reads-only pass sums unweighted values into the first channel only: not the
+        // frame, and (uncompressed, where pixels start from nothing but their emission) the
+        // other two channels keep the emission, on the vector path and the portable tail.
+        assert!(scratch != before.pixels, "{v:?}: the pass made the frame");
+        if v == Variant::Full {
+            for (p, e) in scratch.iter().zip(s.emission.chunks_exact(3)) {
+                assert_eq!([p[1], p[2]], [e[1], e[2]], "weights were applied");
+            }
+        }
+        let after = r.render(v).expect("render");
+        assert!(
+            after.pixels == before.pixels,
+            "{v:?}: the pass changed a frame"
+        );
+    }
+    let (_dir, plain) = open(&Synthetic::new(1, None, 3), Precision::F32);
+    assert!(matches!(
+        plain.time_reads(Variant::Compressed, &mut scratch),
+        Err(prt_runtime::RuntimeError::NoCompressed)
+    ));
+}
