@@ -75,6 +75,20 @@ pub(crate) fn add_run(out: &mut [[f32; 3]], acc: &[Vec<f32>; 3], k: usize, simd:
     add_run_portable(out, a0, a1, a2);
 }
 
+/// Copies a finished band to the frame (`dst.len() == src.len()`). With `simd`, with
+/// non-temporal stores: the frame's lines are written without first being read from memory
+/// and without displacing the cache (the same values, so the same bits).
+pub(crate) fn stream_out(dst: &mut [f32], src: &[f32], simd: bool) {
+    #[cfg(target_arch = "x86_64")]
+    if simd && std::arch::is_x86_feature_detected!("avx") {
+        // SAFETY: the CPU supports AVX (checked just above).
+        unsafe { x86::stream_out(dst, src) };
+        return;
+    }
+    let _ = simd;
+    dst.copy_from_slice(src);
+}
+
 fn add_run_portable(out: &mut [[f32; 3]], a0: &[f32], a1: &[f32], a2: &[f32]) {
     for (o, ((r, g), b)) in out.iter_mut().zip(a0.iter().zip(a1).zip(a2)) {
         *o = [o[0] + r, o[1] + g, o[2] + b];
@@ -139,7 +153,7 @@ mod x86 {
     use std::arch::x86_64::{
         __m128i, __m256, _mm256_add_ps, _mm256_cvtph_ps, _mm256_loadu_ps, _mm256_mul_ps,
         _mm256_permute2f128_ps, _mm256_set1_ps, _mm256_shuffle_ps, _mm256_storeu_ps,
-        _mm_loadu_si128, _mm_prefetch, _MM_HINT_T0,
+        _mm256_stream_ps, _mm_loadu_si128, _mm_prefetch, _mm_sfence, _MM_HINT_T0,
     };
 
     use half::f16;
@@ -189,6 +203,27 @@ mod x86 {
             ]
         });
         tiles_portable::<_, READS_ONLY>(cols, i0, from, init, acc, f16::to_f32);
+    }
+
+    /// [`crate::contract::stream_out`]: plain stores up to the first 32-byte boundary of
+    /// `dst`, then aligned non-temporal stores of eight values, then the tail; a fence at the
+    /// end, so the frame is complete in memory order before the band's task returns.
+    #[target_feature(enable = "avx")]
+    pub(super) unsafe fn stream_out(dst: &mut [f32], src: &[f32]) {
+        assert_eq!(dst.len(), src.len(), "a band and its copy");
+        let head = dst.as_ptr().align_offset(32).min(dst.len());
+        dst[..head].copy_from_slice(&src[..head]);
+        let body = (dst.len() - head) / 8 * 8;
+        for k in (head..head + body).step_by(8) {
+            // SAFETY: k + 8 <= dst.len() (body is whole groups of eight after head), and
+            // dst + k is 32-byte aligned (head aligns it, and k - head is a multiple of 8).
+            _mm256_stream_ps(
+                dst.as_mut_ptr().add(k),
+                _mm256_loadu_ps(src.as_ptr().add(k)),
+            );
+        }
+        dst[head + body..].copy_from_slice(&src[head + body..]);
+        _mm_sfence();
     }
 
     /// [`crate::contract::add_run`] eight pixels at a time: the three channel vectors are
