@@ -1,29 +1,30 @@
 //! The inner loops of the per-pixel relight: a block of a group's pixels, contracted with
 //! every stored element's weights.
 //!
-//! A group stores its values element-major (value e of pixel i at `e * pixels + i`), so a
-//! block reads one short run of every column. Each kernel keeps a tile of pixels' three
+//! A group's values are tiled in memory (`tiled.rs`: 16 pixels' values, column after column),
+//! so a block reads its group front to back. Each kernel keeps a tile of pixels' three
 //! channels in registers while all the columns are added, and writes the tile once. The
 //! per-lane arithmetic is the same everywhere (a multiply, then an add, in term order, no
 //! fused multiply-add), so the portable and the vector kernels give the same bits.
 
 use half::f16;
 
-/// One column of a group's stored values (pixel i's value at index i) and its weight per
-/// output channel.
-pub(crate) type Column<'a, T> = (&'a [T], [f32; 3]);
+use crate::tiled::Tiled;
+
+/// A column (stored element, or low-rank component) of a group with a nonzero weight: its
+/// index and its weight per output channel.
+pub(crate) type Column = (usize, [f32; 3]);
 
 /// Pixels per tile of the portable kernel (its three accumulators stay in registers).
 const TILE: usize = 8;
-/// How many cache lines ahead of the current tile each column is prefetched.
-const PREFETCH_LINES: usize = 8;
 
-/// `acc[c][k] = init[c] + sum_cols w[c] * col[i0 + k]` for k < acc[0].len(), reading each
-/// stored value once; `simd` allows the vector kernel. With `READS_ONLY`, the same values are
-/// read in the same order but only summed, unweighted, into `acc[0]` (a measurement of what
-/// the memory traffic alone costs, see `Relighter::time_reads`).
+/// `acc[c][k] = init[c] + sum_cols w[c] * value(col, i0 + k)` for k < acc[0].len(), reading
+/// each stored value once; `simd` allows the vector kernel. With `READS_ONLY`, the same values
+/// are read in the same order but only summed, unweighted, into `acc[0]` (a measurement of
+/// what the memory traffic alone costs, see `Relighter::time_reads`).
 pub(crate) fn tiles_f32<const READS_ONLY: bool>(
-    cols: &[Column<'_, f32>],
+    values: &Tiled<f32>,
+    cols: &[Column],
     i0: usize,
     init: [f32; 3],
     simd: bool,
@@ -32,16 +33,18 @@ pub(crate) fn tiles_f32<const READS_ONLY: bool>(
     #[cfg(target_arch = "x86_64")]
     if simd && std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU supports AVX2 (checked just above).
-        unsafe { x86::tiles_f32::<READS_ONLY>(cols, i0, init, acc) };
+        unsafe { x86::tiles_f32::<READS_ONLY>(values, cols, i0, init, acc) };
         return;
     }
     let _ = simd;
-    tiles_portable::<_, READS_ONLY>(cols, i0, 0, init, acc, |v| v);
+    let n = acc[0].len();
+    tiles_portable::<_, READS_ONLY>(values, cols, i0, 0..n, init, acc, |v| v);
 }
 
 /// [`tiles_f32`] over f16 values (converted as they are read).
 pub(crate) fn tiles_f16<const READS_ONLY: bool>(
-    cols: &[Column<'_, f16>],
+    values: &Tiled<f16>,
+    cols: &[Column],
     i0: usize,
     init: [f32; 3],
     simd: bool,
@@ -53,11 +56,12 @@ pub(crate) fn tiles_f16<const READS_ONLY: bool>(
         && std::arch::is_x86_feature_detected!("f16c")
     {
         // SAFETY: the CPU supports AVX2 and F16C (checked just above).
-        unsafe { x86::tiles_f16::<READS_ONLY>(cols, i0, init, acc) };
+        unsafe { x86::tiles_f16::<READS_ONLY>(values, cols, i0, init, acc) };
         return;
     }
     let _ = simd;
-    tiles_portable::<_, READS_ONLY>(cols, i0, 0, init, acc, f16::to_f32);
+    let n = acc[0].len();
+    tiles_portable::<_, READS_ONLY>(values, cols, i0, 0..n, init, acc, f16::to_f32);
 }
 
 /// Adds pixels `k..k + out.len()` of a block's channel-major sums `acc` to a stretch of
@@ -95,54 +99,39 @@ fn add_run_portable(out: &mut [[f32; 3]], a0: &[f32], a1: &[f32], a2: &[f32]) {
     }
 }
 
-/// The portable kernel from pixel `from` of the block on (the vector kernels leave it the
-/// pixels past their last whole tile).
+/// The portable kernel over the block's pixels `range` (the vector kernels leave it the
+/// pixels outside their whole tiles).
 #[inline(always)]
-fn tiles_portable<T: Copy, const READS_ONLY: bool>(
-    cols: &[Column<'_, T>],
+fn tiles_portable<T: Copy + Default + Send + Sync, const READS_ONLY: bool>(
+    values: &Tiled<T>,
+    cols: &[Column],
     i0: usize,
-    from: usize,
+    range: std::ops::Range<usize>,
     init: [f32; 3],
     acc: &mut [Vec<f32>; 3],
     one: impl Fn(T) -> f32,
 ) {
-    let n = acc[0].len();
-    let full = from + (n - from) / TILE * TILE;
-    let mut k = from;
-    while k < full {
-        let mut r = [[init[0]; TILE], [init[1]; TILE], [init[2]; TILE]];
-        for (col, w) in cols {
-            for (l, &v) in col[i0 + k..i0 + k + TILE].iter().enumerate() {
-                let x = one(v);
+    let mut k = range.start;
+    while k < range.end {
+        let n = TILE.min(range.end - k);
+        let [mut r0, mut r1, mut r2] = init.map(|v| [v; TILE]);
+        for &(e, w) in cols {
+            for (l, ((a0, a1), a2)) in r0.iter_mut().zip(&mut r1).zip(&mut r2).take(n).enumerate() {
+                let x = one(values.get(e, i0 + k + l));
                 if READS_ONLY {
-                    r[0][l] += x;
+                    *a0 += x;
                     continue;
                 }
-                r[0][l] += w[0] * x;
-                r[1][l] += w[1] * x;
-                r[2][l] += w[2] * x;
+                *a0 += w[0] * x;
+                *a1 += w[1] * x;
+                *a2 += w[2] * x;
             }
         }
+        let r = [r0, r1, r2];
         for (c, rc) in r.iter().enumerate() {
-            acc[c][k..k + TILE].copy_from_slice(rc);
+            acc[c][k..k + n].copy_from_slice(&rc[..n]);
         }
-        k += TILE;
-    }
-    for k in full..n {
-        let mut r = init;
-        for (col, w) in cols {
-            let x = one(col[i0 + k]);
-            if READS_ONLY {
-                r[0] += x;
-                continue;
-            }
-            r[0] += w[0] * x;
-            r[1] += w[1] * x;
-            r[2] += w[2] * x;
-        }
-        for (a, v) in acc.iter_mut().zip(r) {
-            a[k] = v;
-        }
+        k += n;
     }
 }
 
@@ -158,51 +147,117 @@ mod x86 {
 
     use half::f16;
 
-    use crate::contract::{add_run_portable, tiles_portable, Column, PREFETCH_LINES};
+    use crate::contract::{add_run_portable, tiles_portable, Column};
+    use crate::tiled::{Tiled, TILE_PIXELS};
 
     /// Pixels per tile: two registers per channel, so six independent add chains hide the
     /// add latency.
     const TILE: usize = 16;
-    /// Columns per pass over a block. A pass reads 8 columns' long runs (a block's pixels)
-    /// and keeps the tile's running sums in the block's accumulators between passes (stored
-    /// and reloaded as f32, so the sums are the same bits): 10-15 % faster per frame than
-    /// all columns in one pass, whose ~100 interleaved streams the memory system served
-    /// worse.
-    const CHUNK: usize = 8;
+    const _: () = assert!(TILE == TILE_PIXELS, "a vector tile is a stored tile");
+    /// How far ahead of each load its line is prefetched: the hardware's prefetchers alone
+    /// left the loads waiting on memory for most of a frame.
+    const PREFETCH_BYTES: usize = 8192;
 
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn tiles_f32<const READS_ONLY: bool>(
-        cols: &[Column<'_, f32>],
+        values: &Tiled<f32>,
+        cols: &[Column],
         i0: usize,
         init: [f32; 3],
         acc: &mut [Vec<f32>; 3],
     ) {
-        // SAFETY (the closure): the slice holds TILE f32 values, two registers' worth.
-        let from = tiles::<_, READS_ONLY>(cols, i0, init, acc, |s: &[f32]| unsafe {
-            [
-                _mm256_loadu_ps(s.as_ptr()),
-                _mm256_loadu_ps(s.as_ptr().add(8)),
-            ]
+        // SAFETY (the closure): the pointer starts TILE f32 values inside the tiled copy.
+        let whole = tiles::<_, READS_ONLY>(values, cols, i0, init, acc, |p: *const f32| unsafe {
+            [_mm256_loadu_ps(p), _mm256_loadu_ps(p.add(8))]
         });
-        tiles_portable::<_, READS_ONLY>(cols, i0, from, init, acc, |v| v);
+        portable_rest::<_, READS_ONLY>(values, cols, i0, whole, init, acc, |v| v);
     }
 
     #[target_feature(enable = "avx2,f16c")]
     pub(super) unsafe fn tiles_f16<const READS_ONLY: bool>(
-        cols: &[Column<'_, f16>],
+        values: &Tiled<f16>,
+        cols: &[Column],
         i0: usize,
         init: [f32; 3],
         acc: &mut [Vec<f32>; 3],
     ) {
-        // SAFETY (the closure): the slice holds TILE f16 values (32 bytes); unaligned loads.
-        let from = tiles::<_, READS_ONLY>(cols, i0, init, acc, |s: &[f16]| unsafe {
-            let p = s.as_ptr() as *const __m128i;
+        // SAFETY (the closure): the pointer starts TILE f16 values (32 bytes) inside the
+        // tiled copy; unaligned loads.
+        let whole = tiles::<_, READS_ONLY>(values, cols, i0, init, acc, |p: *const f16| unsafe {
+            let p = p as *const __m128i;
             [
                 _mm256_cvtph_ps(_mm_loadu_si128(p)),
                 _mm256_cvtph_ps(_mm_loadu_si128(p.add(1))),
             ]
         });
-        tiles_portable::<_, READS_ONLY>(cols, i0, from, init, acc, f16::to_f32);
+        portable_rest::<_, READS_ONLY>(values, cols, i0, whole, init, acc, f16::to_f32);
+    }
+
+    /// The portable kernel on the block's pixels before and after its whole stored tiles
+    /// (`whole`, block-relative).
+    #[inline(always)]
+    fn portable_rest<T: Copy + Default + Send + Sync, const READS_ONLY: bool>(
+        values: &Tiled<T>,
+        cols: &[Column],
+        i0: usize,
+        whole: std::ops::Range<usize>,
+        init: [f32; 3],
+        acc: &mut [Vec<f32>; 3],
+        one: impl Fn(T) -> f32 + Copy,
+    ) {
+        let n = acc[0].len();
+        tiles_portable::<_, READS_ONLY>(values, cols, i0, 0..whole.start, init, acc, one);
+        tiles_portable::<_, READS_ONLY>(values, cols, i0, whole.end..n, init, acc, one);
+    }
+
+    /// The block's whole stored tiles; returns which of its pixels they are (block-relative),
+    /// the rest being left to the portable kernel.
+    #[inline(always)]
+    unsafe fn tiles<T: Copy + Default + Send + Sync, const READS_ONLY: bool>(
+        values: &Tiled<T>,
+        cols: &[Column],
+        i0: usize,
+        init: [f32; 3],
+        acc: &mut [Vec<f32>; 3],
+        load: impl Fn(*const T) -> [__m256; 2],
+    ) -> std::ops::Range<usize> {
+        let n = acc[0].len();
+        let first = i0.next_multiple_of(TILE).min(i0 + n);
+        let last = ((i0 + n) / TILE * TILE).max(first);
+        let stride = values.stride();
+        let base = values.values.as_ptr();
+        let mut i = first;
+        while i < last {
+            // SAFETY: tile i / TILE exists (i < last <= the group's pixels, rounded down), so
+            // its stride values lie inside `values`.
+            let tile = base.add(i / TILE * stride);
+            let mut r = init.map(|v| [_mm256_set1_ps(v); 2]);
+            for &(e, w) in cols {
+                let p = tile.add(e * TILE);
+                // A prefetch is only a hint and never faults, so an address past the end is
+                // harmless.
+                _mm_prefetch::<_MM_HINT_T0>(p.wrapping_byte_add(PREFETCH_BYTES) as *const i8);
+                let x = load(p);
+                if READS_ONLY {
+                    r[0][0] = _mm256_add_ps(r[0][0], x[0]);
+                    r[0][1] = _mm256_add_ps(r[0][1], x[1]);
+                    continue;
+                }
+                for (c, rc) in r.iter_mut().enumerate() {
+                    let wc = _mm256_set1_ps(w[c]);
+                    rc[0] = _mm256_add_ps(rc[0], _mm256_mul_ps(wc, x[0]));
+                    rc[1] = _mm256_add_ps(rc[1], _mm256_mul_ps(wc, x[1]));
+                }
+            }
+            let k = i - i0;
+            for (a, rc) in acc.iter_mut().zip(&r) {
+                let out = &mut a[k..k + TILE];
+                _mm256_storeu_ps(out.as_mut_ptr(), rc[0]);
+                _mm256_storeu_ps(out.as_mut_ptr().add(8), rc[1]);
+            }
+            i += TILE;
+        }
+        first - i0..last - i0
     }
 
     /// [`crate::contract::stream_out`]: plain stores up to the first 32-byte boundary of
@@ -257,74 +312,5 @@ mod x86 {
             }
         }
         add_run_portable(&mut out[full..], &a0[full..], &a1[full..], &a2[full..]);
-    }
-
-    /// The whole tiles of the block; returns where the portable tail starts.
-    #[inline(always)]
-    unsafe fn tiles<T, const READS_ONLY: bool>(
-        cols: &[Column<'_, T>],
-        i0: usize,
-        init: [f32; 3],
-        acc: &mut [Vec<f32>; 3],
-        load: impl Fn(&[T]) -> [__m256; 2],
-    ) -> usize {
-        let n = acc[0].len();
-        let full = n - n % TILE;
-        // Values per 64-byte cache line. The columns lie far apart (one per stored element),
-        // so each column's line PREFETCH_LINES ahead is asked for explicitly, once per line:
-        // without it the loads waited on memory for 80 % of a frame (and still cost 1.4x
-        // with the passes of CHUNK columns).
-        let line = (64 / std::mem::size_of::<T>()).max(TILE);
-        if cols.is_empty() {
-            for (a, v) in acc.iter_mut().zip(init) {
-                a[..full].fill(v);
-            }
-        }
-        for (pass, chunk) in cols.chunks(CHUNK).enumerate() {
-            let mut k = 0;
-            while k < full {
-                if k % line == 0 {
-                    for (col, _) in chunk {
-                        // A prefetch is only a hint and never faults, so an address past the
-                        // column's end is harmless.
-                        let p = col.as_ptr().wrapping_add(i0 + k + PREFETCH_LINES * line);
-                        _mm_prefetch::<_MM_HINT_T0>(p as *const i8);
-                    }
-                }
-                let mut r = if pass == 0 {
-                    init.map(|v| [_mm256_set1_ps(v); 2])
-                } else {
-                    let mut r = [[_mm256_set1_ps(0.0); 2]; 3];
-                    for (rc, a) in r.iter_mut().zip(acc.iter()) {
-                        let src = &a[k..k + TILE];
-                        *rc = [
-                            _mm256_loadu_ps(src.as_ptr()),
-                            _mm256_loadu_ps(src.as_ptr().add(8)),
-                        ];
-                    }
-                    r
-                };
-                for (col, w) in chunk {
-                    let x = load(&col[i0 + k..i0 + k + TILE]);
-                    if READS_ONLY {
-                        r[0][0] = _mm256_add_ps(r[0][0], x[0]);
-                        r[0][1] = _mm256_add_ps(r[0][1], x[1]);
-                        continue;
-                    }
-                    for (c, rc) in r.iter_mut().enumerate() {
-                        let wc = _mm256_set1_ps(w[c]);
-                        rc[0] = _mm256_add_ps(rc[0], _mm256_mul_ps(wc, x[0]));
-                        rc[1] = _mm256_add_ps(rc[1], _mm256_mul_ps(wc, x[1]));
-                    }
-                }
-                for (a, rc) in acc.iter_mut().zip(&r) {
-                    let out = &mut a[k..k + TILE];
-                    _mm256_storeu_ps(out.as_mut_ptr(), rc[0]);
-                    _mm256_storeu_ps(out.as_mut_ptr().add(8), rc[1]);
-                }
-                k += TILE;
-            }
-        }
-        full
     }
 }

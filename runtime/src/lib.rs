@@ -24,6 +24,7 @@ mod error;
 pub mod light;
 mod materials;
 pub mod raster;
+mod tiled;
 pub mod vertex;
 
 pub use error::RuntimeError;
@@ -40,6 +41,7 @@ use rayon::prelude::*;
 
 use contract::{add_run, stream_out, tiles_f16, tiles_f32, Column};
 use materials::Materials;
+use tiled::Tiled;
 
 /// Which representation to relight from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -99,6 +101,22 @@ pub struct Relighter {
     band_starts: Vec<Vec<usize>>,
     /// Per group, its pixel list as runs of consecutive image pixels, cut at band edges.
     runs: Vec<GroupRuns>,
+    /// Per group, its stored values in the tiled layout the kernels read (`tiled.rs`).
+    values: Vec<GroupValues>,
+}
+
+/// One group's values as a frame reads them (copied from the file into tiles at open).
+struct GroupValues {
+    /// The stored transfer rows.
+    full: StoredValues,
+    /// The low-rank weights (`g<k>.weights`, one column per component), when present.
+    low_rank: Option<Tiled<f32>>,
+}
+
+/// A group's transfer rows in the precision they are stored in.
+enum StoredValues {
+    F32(Tiled<f32>),
+    F16(Tiled<f16>),
 }
 
 impl Relighter {
@@ -147,6 +165,7 @@ impl Relighter {
         file.tensor(names::EMISSION)?.require_shape(&[h, w, 3])?;
         let mut band_starts = Vec::with_capacity(meta.groups.len());
         let mut runs = Vec::with_capacity(meta.groups.len());
+        let mut values = Vec::with_capacity(meta.groups.len());
         for (g, gm) in meta.groups.iter().enumerate() {
             let Some(m) = meta.materials.get(gm.material as usize) else {
                 return Err(schema(format!(
@@ -211,13 +230,21 @@ impl Relighter {
                     meta.precision.name()
                 )));
             }
+            let full = match stored {
+                Dtype::F16 => StoredValues::F16(Tiled::from_element_major(t.as_f16()?, expect, p)),
+                _ => StoredValues::F32(Tiled::from_element_major(t.as_f32()?, expect, p)),
+            };
+            let mut low_rank = None;
             if let Some(k) = gm.compressed_rank {
                 let k = k as usize;
                 file.tensor(&names::mean(g))?.require_shape(&[expect])?;
                 file.tensor(&names::components(g))?
                     .require_shape(&[k, expect])?;
-                file.tensor(&names::weights(g))?.require_shape(&[k, p])?;
+                let z = file.tensor(&names::weights(g))?;
+                z.require_shape(&[k, p])?;
+                low_rank = Some(Tiled::from_element_major(z.as_f32()?, k, p));
             }
+            values.push(GroupValues { full, low_rank });
         }
         Ok(Relighter {
             file,
@@ -226,6 +253,7 @@ impl Relighter {
             kernel: Kernel::Auto,
             band_starts,
             runs,
+            values,
         })
     }
 
@@ -340,41 +368,40 @@ impl Relighter {
             let len = gm.row_len as usize;
             // The pixel list itself is not read: its runs were found at open.
             let np = gm.pixels as usize;
+            let stored = &self.values[g];
             let columns = match variant {
                 Variant::Full => {
-                    let t = self.file.tensor(&names::transfer(g))?;
                     // Only the columns with a nonzero weight are read.
-                    let (columns, read) = match t.dtype() {
-                        Dtype::F16 => {
-                            let cols = element_columns(t.as_f16()?, &w, gm.scale, np);
+                    let (columns, read) = match &stored.full {
+                        StoredValues::F16(values) => {
+                            let cols = element_columns(&w, gm.scale);
                             let read = cols.len() * np * 2;
-                            (Columns::F16(cols), read)
+                            (Columns::F16(values, cols), read)
                         }
-                        _ => {
-                            let cols = element_columns(t.as_f32()?, &w, 1.0, np);
+                        StoredValues::F32(values) => {
+                            let cols = element_columns(&w, 1.0);
                             let read = cols.len() * np * 4;
-                            (Columns::F32(cols, [0.0; 3]), read)
+                            (Columns::F32(values, cols, [0.0; 3]), read)
                         }
                     };
                     bytes_read += read as u64;
                     columns
                 }
                 Variant::Compressed => {
-                    let k = gm.compressed_rank.unwrap_or(0) as usize;
+                    let (Some(z), Some(k)) = (&stored.low_rank, gm.compressed_rank) else {
+                        return Err(RuntimeError::NoCompressed);
+                    };
+                    let k = k as usize;
                     let mean = self.file.tensor(&names::mean(g))?.as_f32()?;
                     let comps = self.file.tensor(&names::components(g))?.as_f32()?;
-                    let z = self.file.tensor(&names::weights(g))?.as_f32()?;
-                    bytes_read += ((mean.len() + comps.len() + z.len()) * 4) as u64;
+                    bytes_read += ((mean.len() + comps.len() + k * np) * 4) as u64;
                     // Contract the mean and the K components once per frame; each pixel's
                     // K weights are then its columns.
                     let base = dot3(mean, &w, len);
-                    let cols = z
-                        .chunks_exact(np.max(1))
-                        .take(k)
-                        .enumerate()
-                        .map(|(r, zr)| (zr, dot3(&comps[r * len..(r + 1) * len], &w, len)))
+                    let cols = (0..k)
+                        .map(|r| (r, dot3(&comps[r * len..(r + 1) * len], &w, len)))
                         .collect();
-                    Columns::F32(cols, base)
+                    Columns::F32(z, cols, base)
                 }
             };
             groups.push(columns);
@@ -524,26 +551,23 @@ fn band_pixels(width: usize) -> usize {
 /// stream, each in runs of a block's pixels.
 const BLOCK: usize = 1024;
 
-/// A group's stored columns with a nonzero weight (one per stored element, or per low-rank
-/// component), each with its weight per output channel; a column's value i is the group's
-/// pixel i's.
+/// A group's values for a frame and its columns with a nonzero weight (stored elements, or
+/// low-rank components), each with its weight per output channel.
 enum Columns<'a> {
-    /// f32 columns and the radiance every pixel starts from (the low-rank mean's, else 0).
-    F32(Vec<Column<'a, f32>>, [f32; 3]),
-    /// f16 columns (the group's scale is folded into the weights).
-    F16(Vec<Column<'a, f16>>),
+    /// f32 values and the radiance every pixel starts from (the low-rank mean's, else 0).
+    F32(&'a Tiled<f32>, Vec<Column>, [f32; 3]),
+    /// f16 values (the group's scale is folded into the weights).
+    F16(&'a Tiled<f16>, Vec<Column>),
 }
 
-/// The columns of element-major values (value e of pixel i at `e * pixels + i`) whose
-/// weight is nonzero; `w` is 3 x len, channel-major, and `scale` multiplies it.
-fn element_columns<'a, T>(t: &'a [T], w: &[f32], scale: f32, pixels: usize) -> Vec<Column<'a, T>> {
+/// The stored elements whose weight is nonzero; `w` is 3 x len, channel-major, and `scale`
+/// multiplies it.
+fn element_columns(w: &[f32], scale: f32) -> Vec<Column> {
     let len = w.len() / 3;
-    t.chunks_exact(pixels.max(1))
-        .take(len)
-        .enumerate()
-        .map(|(e, col)| {
+    (0..len)
+        .map(|e| {
             (
-                col,
+                e,
                 [w[e] * scale, w[len + e] * scale, w[2 * len + e] * scale],
             )
         })
@@ -567,8 +591,12 @@ impl Columns<'_> {
             a.resize(n, 0.0);
         }
         match self {
-            Columns::F32(cols, init) => tiles_f32::<READS_ONLY>(cols, i0, *init, simd, acc),
-            Columns::F16(cols) => tiles_f16::<READS_ONLY>(cols, i0, [0.0; 3], simd, acc),
+            Columns::F32(values, cols, init) => {
+                tiles_f32::<READS_ONLY>(values, cols, i0, *init, simd, acc)
+            }
+            Columns::F16(values, cols) => {
+                tiles_f16::<READS_ONLY>(values, cols, i0, [0.0; 3], simd, acc)
+            }
         }
     }
 }
