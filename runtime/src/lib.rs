@@ -103,6 +103,12 @@ pub struct Relighter {
     runs: Vec<GroupRuns>,
     /// Per group, its stored values in the tiled layout the kernels read (`tiled.rs`).
     values: Vec<GroupValues>,
+    /// The pixels whose stored emission is not +0 in every channel, as runs per band: a
+    /// frame reads only these (the others start from zero), so a scene whose camera sees
+    /// little emission does not read the whole emission image every frame.
+    emitting: GroupRuns,
+    /// How many pixels `emitting` holds.
+    emitting_pixels: usize,
 }
 
 /// One group's values as a frame reads them (copied from the file into tiles at open).
@@ -164,7 +170,24 @@ impl Relighter {
         let materials = Materials::new(&meta.materials, &meta.bases).map_err(schema)?;
         let nslots: usize = meta.materials.iter().map(|m| m.slots.len()).sum();
         let (w, h) = (meta.width as usize, meta.height as usize);
-        file.tensor(names::EMISSION)?.require_shape(&[h, w, 3])?;
+        let emission = file.tensor(names::EMISSION)?;
+        emission.require_shape(&[h, w, 3])?;
+        // Bits, not values: a pixel starting from +0 instead of its stored emission must give
+        // the same bits, which -0 would not.
+        let emitting: Vec<u32> = emission
+            .as_f32()?
+            .chunks_exact(3)
+            .zip(0u32..)
+            .filter(|(e, _)| e.iter().any(|v| v.to_bits() != 0))
+            .map(|(_, i)| i)
+            .collect();
+        let band = band_pixels(w);
+        let starts: Vec<usize> = (0..h.div_ceil(BAND_ROWS))
+            .map(|b| emitting.partition_point(|&i| (i as usize) < b * band))
+            .chain([emitting.len()])
+            .collect();
+        let emitting_pixels = emitting.len();
+        let emitting = GroupRuns::new(&emitting, &starts);
         let mut band_starts = Vec::with_capacity(meta.groups.len());
         let mut runs = Vec::with_capacity(meta.groups.len());
         let mut values = Vec::with_capacity(meta.groups.len());
@@ -256,6 +279,8 @@ impl Relighter {
             band_starts,
             runs,
             values,
+            emitting,
+            emitting_pixels,
         })
     }
 
@@ -362,7 +387,7 @@ impl Relighter {
         let reflections = self.meta.reflections as usize;
         let channels = self.meta.channels as usize;
         let emission = self.file.tensor(names::EMISSION)?.as_f32()?;
-        let mut bytes_read = (emission.len() * 4) as u64;
+        let mut bytes_read = (self.emitting_pixels * 3 * 4) as u64;
         let mut groups = Vec::with_capacity(self.meta.groups.len());
         for (g, gm) in self.meta.groups.iter().enumerate() {
             let m = &self.meta.materials[gm.material as usize];
@@ -425,13 +450,15 @@ impl Relighter {
                     // before) and then streamed to the frame, so the frame's old contents are
                     // never read: writing into the frame directly first fetched each of its
                     // lines from memory (2-9 % of a frame, measured).
-                    // Each band copies its own emission (in parallel, and while the band is in
-                    // cache: a serial copy of the whole image took 8 % of a frame, and a
-                    // parallel one before the bands 10-20 %).
+                    // Each band starts from its own emission (in parallel, and while the band
+                    // is in cache: a serial copy of the whole image took 8 % of a frame, and a
+                    // parallel one before the bands 10-20 %), reading only the emitting pixels.
                     image.clear();
-                    match emission.get(3 * lo..3 * (lo + n)) {
-                        Some(e) => image.extend_from_slice(e),
-                        None => image.resize(3 * n, 0.0),
+                    image.resize(3 * n, 0.0);
+                    for run in self.emitting.band(b) {
+                        let at = 3 * (run.pixel - lo);
+                        image[at..at + 3 * run.len]
+                            .copy_from_slice(&emission[3 * run.pixel..3 * (run.pixel + run.len)]);
                     }
                     let (img, _) = image.as_chunks_mut::<3>();
                     for ((g, starts), gr) in groups.iter().zip(&self.band_starts).zip(&self.runs) {
@@ -469,10 +496,11 @@ impl Relighter {
     }
 }
 
-/// A stretch of a group's pixel list whose image pixels are consecutive.
+/// A stretch of a pixel list (a group's, or the emitting pixels) whose image pixels are
+/// consecutive.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct Run {
-    /// Index of its first pixel in the group's list.
+    /// Index of its first pixel in the list.
     first: usize,
     /// Its first image pixel.
     pixel: usize,
@@ -485,9 +513,9 @@ impl Run {
     }
 }
 
-/// A group's pixel list cut into [`Run`]s once, when the file is opened (finding them in every
-/// frame, by binary search over the list, took a tenth of a frame: the searches' loads missed
-/// the cache).
+/// A pixel list (a group's, or the emitting pixels) cut into [`Run`]s once, when the file is
+/// opened (finding a group's in every frame, by binary search over its list, took a tenth of a
+/// frame: the searches' loads missed the cache).
 #[derive(Debug)]
 struct GroupRuns {
     runs: Vec<Run>,

@@ -256,3 +256,29 @@ fn time_reads_reads_what_a_frame_reads_and_changes_nothing() {
         Err(prt_runtime::RuntimeError::NoCompressed)
     ));
 }
+
+#[test]
+fn only_emitting_pixels_are_read_and_negative_zero_is_kept() {
+    // Pixels whose stored emission is +0 in every channel start from zero instead of being
+    // read. Pixel 14 is in no group, so its frame value is its emission exactly: -0 must stay
+    // -0 (a test by value instead of by bits would make it +0).
+    let mut s = Synthetic::new(1, None, 31);
+    let dark = 100..400;
+    for p in dark.clone() {
+        s.emission[3 * p..3 * p + 3].fill(0.0);
+    }
+    s.emission[3 * 14..3 * 14 + 3].fill(-0.0);
+    assert!(s.groups.iter().all(|g| !g.pixels.contains(&14)));
+    let (_dir, mut r) = open(&s, Precision::F32);
+    let full: u64 = s.groups.iter().map(|g| g.transfer.len() as u64 * 4).sum();
+    let emitting = (W * H) as u64 - dark.len() as u64;
+    let expect = s.relight(&s.params(), false, None);
+    for kernel in [Kernel::Auto, Kernel::Scalar] {
+        r.set_kernel(kernel);
+        let f = r.render(Variant::Full).expect("render");
+        assert_eq!(f.bytes_read, emitting * 12 + full, "{kernel:?}");
+        let err = max_rel_err(&f.pixels, &expect);
+        assert!(err < 2e-6, "{kernel:?}: max error {err:e}");
+        assert_eq!(f.pixels[14].map(f32::to_bits), [(-0.0f32).to_bits(); 3]);
+    }
+}
