@@ -231,9 +231,9 @@ pub(crate) fn time_variants(
     runs: &[VariantRun],
     settings: &[Setting],
     frames: usize,
-    stream: &StreamBench,
+    stream: &mut StreamBench,
     stream_every: usize,
-) -> Result<(Vec<RelightTiming>, Vec<f64>)> {
+) -> Result<(Vec<RelightTiming>, Vec<f64>, Vec<f64>)> {
     let mut rls = runs
         .iter()
         .map(|v| Relit::open(&v.path))
@@ -243,9 +243,11 @@ pub(crate) fn time_variants(
     let mut scratch = Vec::new();
     let mut bytes = vec![0u64; runs.len()];
     let mut rates = Vec::new();
+    let mut write_rates = Vec::new();
     for f in 0..frames + 2 {
         if f >= 2 && (f - 2) % stream_every.max(1) == 0 {
             rates.push(stream.run());
+            write_rates.push(stream.run_write());
         }
         let s = &settings[f % settings.len()];
         for (i, (r, v)) in rls.iter_mut().zip(runs).enumerate() {
@@ -284,7 +286,7 @@ pub(crate) fn time_variants(
             added_error: (i > 0 && v.variant == Variant::Compressed).then_some(added[i]),
         })
         .collect();
-    Ok((rows, rates))
+    Ok((rows, rates, write_rates))
 }
 
 /// Relit images of every setting from one bake file.

@@ -196,14 +196,14 @@ pub fn run(opts: &ReportOptions) -> Result<ReportSummary> {
     ));
     // The bandwidth passes are interleaved with the relight rounds, so that both see the same
     // load on the shared machine.
-    let stream = StreamBench::new(plan.bw_bytes);
+    let mut stream = StreamBench::new(plan.bw_bytes);
     let every = (plan.frames / plan.bw_runs.max(1)).max(1);
-    let timed = time_variants(&runs, &main.settings, plan.frames, &stream, every);
+    let timed = time_variants(&runs, &main.settings, plan.frames, &mut stream, every);
     for v in &runs {
         remove(&v.path);
     }
-    let (relight_rows, rates) = timed?;
-    let bandwidth = stream.figures(rates);
+    let (relight_rows, rates, write_rates) = timed?;
+    let bandwidth = stream.figures(rates, write_rates);
     drop(stream);
     say(format!(
         "bandwidth {:.2} GB/s (median of {})",

@@ -17,6 +17,11 @@ pub struct Bandwidth {
     pub best: f64,
     /// Every run's rate, bytes per second.
     pub rates: Vec<f64>,
+    /// Writing instead (the same array, with non-temporal stores as the relight writes its
+    /// frames): the median over its runs, bytes per second.
+    pub write_median: f64,
+    /// Every write run's rate, bytes per second.
+    pub write_rates: Vec<f64>,
 }
 
 fn sum_chunk(c: &[f32]) -> f32 {
@@ -69,8 +74,19 @@ impl StreamBench {
         self.bytes() as f64 / dt.max(1e-12)
     }
 
-    /// The figures of a set of runs.
-    pub fn figures(&self, rates: Vec<f64>) -> Bandwidth {
+    /// One writing pass over the array; the write rate in bytes per second.
+    pub fn run_write(&mut self) -> f64 {
+        let t = Instant::now();
+        self.data
+            .par_chunks_mut(Self::CHUNK)
+            .enumerate()
+            .for_each(|(i, c)| write_chunk(c, (i % 7) as f32));
+        let dt = t.elapsed().as_secs_f64();
+        self.bytes() as f64 / dt.max(1e-12)
+    }
+
+    /// The figures of a set of read runs and write runs.
+    pub fn figures(&self, rates: Vec<f64>, write_rates: Vec<f64>) -> Bandwidth {
         Bandwidth {
             bytes: self.bytes(),
             runs: rates.len(),
@@ -78,13 +94,45 @@ impl StreamBench {
             median: median(&rates),
             best: rates.iter().copied().fold(0.0, f64::max),
             rates,
+            write_median: median(&write_rates),
+            write_rates,
         }
     }
 }
 
+/// Fills `c` with `v`. On x86-64 with AVX, with non-temporal stores, the way the runtime
+/// writes a frame (its `stream_out` is internal to it, and this is the machine's figure for
+/// that way of writing, not the runtime's code under test).
+fn write_chunk(c: &mut [f32], v: f32) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx") {
+        // SAFETY: the CPU supports AVX (checked just above).
+        unsafe { write_chunk_avx(c, v) };
+        return;
+    }
+    c.fill(v);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+unsafe fn write_chunk_avx(c: &mut [f32], v: f32) {
+    use std::arch::x86_64::{_mm256_set1_ps, _mm256_stream_ps, _mm_sfence};
+    let head = c.as_ptr().align_offset(32).min(c.len());
+    c[..head].fill(v);
+    let body = (c.len() - head) / 8 * 8;
+    let x = _mm256_set1_ps(v);
+    for k in (head..head + body).step_by(8) {
+        // SAFETY: k + 8 <= c.len(), and c + k is 32-byte aligned (head aligns it).
+        _mm256_stream_ps(c.as_mut_ptr().add(k), x);
+    }
+    c[head + body..].fill(v);
+    _mm_sfence();
+}
+
 /// Streaming read bandwidth over `bytes` bytes: the median of `runs` passes after a warm-up.
 pub fn stream_read_bandwidth(bytes: usize, runs: usize) -> Bandwidth {
-    let b = StreamBench::new(bytes);
+    let mut b = StreamBench::new(bytes);
     let rates = (0..runs.max(1)).map(|_| b.run()).collect();
-    b.figures(rates)
+    let write_rates = (0..runs.max(1)).map(|_| b.run_write()).collect();
+    b.figures(rates, write_rates)
 }
