@@ -95,10 +95,6 @@ pub struct Relighter {
     meta: PixelBakeMeta,
     materials: Materials,
     kernel: Kernel,
-    /// Per group, where each band of [`BAND_ROWS`] rows starts in its pixel list (one entry
-    /// per band, then the list's length): found once here rather than by binary search in
-    /// every frame.
-    band_starts: Vec<Vec<usize>>,
     /// Per group, its pixel list as runs of consecutive image pixels, cut at band edges.
     runs: Vec<GroupRuns>,
     /// Per group, its stored values in the tiled layout the kernels read (`tiled.rs`).
@@ -107,8 +103,6 @@ pub struct Relighter {
     /// frame reads only these (the others start from zero), so a scene whose camera sees
     /// little emission does not read the whole emission image every frame.
     emitting: GroupRuns,
-    /// How many pixels `emitting` holds.
-    emitting_pixels: usize,
 }
 
 /// One group's values as a frame reads them (copied from the file into tiles at open).
@@ -181,14 +175,7 @@ impl Relighter {
             .filter(|(e, _)| e.iter().any(|v| v.to_bits() != 0))
             .map(|(_, i)| i)
             .collect();
-        let band = band_pixels(w);
-        let starts: Vec<usize> = (0..h.div_ceil(BAND_ROWS))
-            .map(|b| emitting.partition_point(|&i| (i as usize) < b * band))
-            .chain([emitting.len()])
-            .collect();
-        let emitting_pixels = emitting.len();
-        let emitting = GroupRuns::new(&emitting, &starts);
-        let mut band_starts = Vec::with_capacity(meta.groups.len());
+        let emitting = GroupRuns::new(&emitting, w, h);
         let mut runs = Vec::with_capacity(meta.groups.len());
         let mut values = Vec::with_capacity(meta.groups.len());
         for (g, gm) in meta.groups.iter().enumerate() {
@@ -235,13 +222,7 @@ impl Relighter {
                     "group {g}: pixel indices are not strictly ascending"
                 )));
             }
-            let band = band_pixels(w);
-            let starts: Vec<usize> = (0..h.div_ceil(BAND_ROWS))
-                .map(|b| indices.partition_point(|&i| (i as usize) < b * band))
-                .chain([p])
-                .collect();
-            runs.push(GroupRuns::new(indices, &starts));
-            band_starts.push(starts);
+            runs.push(GroupRuns::new(indices, w, h));
             let t = file.tensor(&names::transfer(g))?;
             t.require_shape(&[expect, p])?;
             let stored = match meta.precision {
@@ -276,11 +257,9 @@ impl Relighter {
             meta,
             materials,
             kernel: Kernel::Auto,
-            band_starts,
             runs,
             values,
             emitting,
-            emitting_pixels,
         })
     }
 
@@ -387,7 +366,7 @@ impl Relighter {
         let reflections = self.meta.reflections as usize;
         let channels = self.meta.channels as usize;
         let emission = self.file.tensor(names::EMISSION)?.as_f32()?;
-        let mut bytes_read = (self.emitting_pixels * 3 * 4) as u64;
+        let mut bytes_read = (self.emitting.pixels() * 3 * 4) as u64;
         let mut groups = Vec::with_capacity(self.meta.groups.len());
         for (g, gm) in self.meta.groups.iter().enumerate() {
             let m = &self.meta.materials[gm.material as usize];
@@ -461,9 +440,12 @@ impl Relighter {
                             .copy_from_slice(&emission[3 * run.pixel..3 * (run.pixel + run.len)]);
                     }
                     let (img, _) = image.as_chunks_mut::<3>();
-                    for ((g, starts), gr) in groups.iter().zip(&self.band_starts).zip(&self.runs) {
-                        let (first, last) = (starts[b], starts[b + 1]);
+                    for (g, gr) in groups.iter().zip(&self.runs) {
                         let runs = gr.band(b);
+                        let (first, last) = match (runs.first(), runs.last()) {
+                            (Some(a), Some(z)) => (a.first, z.end()),
+                            _ => continue,
+                        };
                         let mut r = 0;
                         let mut i = first;
                         while i < last {
@@ -524,18 +506,20 @@ struct GroupRuns {
 }
 
 impl GroupRuns {
-    /// The runs of the strictly ascending `indices`, cut at the band starts `starts` (one per
-    /// band into `indices`, then its length), so that no run crosses a band.
-    fn new(indices: &[u32], starts: &[usize]) -> GroupRuns {
+    /// The runs of the strictly ascending pixel indices `indices` of a `width` x `height`
+    /// image, cut at the bands' edges, so that no run crosses a band.
+    fn new(indices: &[u32], width: usize, height: usize) -> GroupRuns {
+        let band = band_pixels(width);
         let mut runs = Vec::new();
-        let mut band_starts = Vec::with_capacity(starts.len());
-        for pair in starts.windows(2) {
+        let mut band_starts = Vec::with_capacity(height.div_ceil(BAND_ROWS) + 1);
+        let mut k = 0;
+        for b in 0..height.div_ceil(BAND_ROWS) {
             band_starts.push(runs.len());
-            let mut k = pair[0];
-            while k < pair[1] {
+            let end = k + indices[k..].partition_point(|&i| (i as usize) < (b + 1) * band);
+            while k < end {
                 let first = k;
                 k += 1;
-                while k < pair[1] && indices[k] == indices[k - 1] + 1 {
+                while k < end && indices[k] == indices[k - 1] + 1 {
                     k += 1;
                 }
                 runs.push(Run {
@@ -547,6 +531,11 @@ impl GroupRuns {
         }
         band_starts.push(runs.len());
         GroupRuns { runs, band_starts }
+    }
+
+    /// How many pixels the runs hold.
+    fn pixels(&self) -> usize {
+        self.runs.iter().map(|r| r.len).sum()
     }
 
     /// The runs of band `b`.

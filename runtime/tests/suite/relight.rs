@@ -23,6 +23,17 @@ fn max_rel_err(frame: &[[f32; 3]], expect: &[[f64; 3]]) -> f64 {
         / scale
 }
 
+/// Both kernels' full frames against the plain f64 sum of the stored f32 values.
+fn full_frames_equal_the_plain_sum(s: &Synthetic, r: &mut Relighter) {
+    let expect = s.relight(&s.params(), false, None);
+    for kernel in [Kernel::Auto, Kernel::Scalar] {
+        r.set_kernel(kernel);
+        let f = r.render(Variant::Full).expect("render");
+        let err = max_rel_err(&f.pixels, &expect);
+        assert!(err < 2e-6, "{kernel:?}: max error {err:e}");
+    }
+}
+
 fn open(s: &Synthetic, precision: Precision) -> (tempfile::TempDir, Relighter) {
     let dir = tempfile::tempdir().expect("tempdir");
     let path = dir.path().join("synthetic.prtbake");
@@ -132,13 +143,7 @@ fn groups_smaller_than_a_tile_relight_exactly() {
         g.meta.pixels = keep as u32;
     }
     let (_dir, mut r) = open(&s, Precision::F32);
-    let expect = s.relight(&s.params(), false, None);
-    for kernel in [Kernel::Auto, Kernel::Scalar] {
-        r.set_kernel(kernel);
-        let f = r.render(Variant::Full).expect("render");
-        let err = max_rel_err(&f.pixels, &expect);
-        assert!(err < 2e-6, "{kernel:?}: max error {err:e}");
-    }
+    full_frames_equal_the_plain_sum(&s, &mut r);
 }
 
 #[test]
@@ -147,13 +152,7 @@ fn runs_across_blocks_and_bands_relight_exactly() {
     // contraction blocks of 1024, and the paint's run through rows 14-16 crosses a band's edge.
     let s = Synthetic::spans(160, 20, 21);
     let (_dir, mut r) = open(&s, Precision::F32);
-    let expect = s.relight(&s.params(), false, None);
-    for kernel in [Kernel::Auto, Kernel::Scalar] {
-        r.set_kernel(kernel);
-        let f = r.render(Variant::Full).expect("render");
-        let err = max_rel_err(&f.pixels, &expect);
-        assert!(err < 2e-6, "{kernel:?}: max error {err:e}");
-    }
+    full_frames_equal_the_plain_sum(&s, &mut r);
 }
 
 #[test]
@@ -197,15 +196,7 @@ fn columns_of_zero_weight_are_neither_read_nor_counted() {
         .groups
         .iter()
         .map(|g| {
-            let m = &s.meta.materials[g.meta.material as usize];
-            let w = prt_formats::pixel::group_weights(
-                &g.meta,
-                m,
-                &coeff,
-                s.meta.reflections as usize,
-                s.meta.channels as usize,
-                s.meta.tint,
-            );
+            let w = s.weights(g, &coeff);
             let len = g.meta.row_len as usize;
             let nonzero = (0..len)
                 .filter(|&e| (0..3).any(|c| w[c * len + e] != 0.0))

@@ -341,6 +341,20 @@ impl Synthetic {
         out
     }
 
+    /// A group's contraction weights (3 x row length, channel-major) for the slot
+    /// coefficients `coeff`.
+    pub fn weights(&self, g: &Group, coeff: &[[f32; 3]]) -> Vec<f32> {
+        let m = &self.meta.materials[g.meta.material as usize];
+        group_weights(
+            &g.meta,
+            m,
+            coeff,
+            self.meta.reflections as usize,
+            self.meta.channels as usize,
+            self.meta.tint,
+        )
+    }
+
     /// The relit image in f64: emission plus, per group and pixel, the sum over stored
     /// elements of value x weight (full) or of the low-rank reconstruction (compressed).
     /// `values` replaces the transfer values (e.g. by their f16 rounding).
@@ -357,15 +371,7 @@ impl Synthetic {
             .map(|c| [c[0] as f64, c[1] as f64, c[2] as f64])
             .collect();
         for (gi, g) in self.groups.iter().enumerate() {
-            let m = &self.meta.materials[g.meta.material as usize];
-            let wts = group_weights(
-                &g.meta,
-                m,
-                &coeff,
-                self.meta.reflections as usize,
-                self.meta.channels as usize,
-                self.meta.tint,
-            );
+            let wts = self.weights(g, &coeff);
             let len = g.meta.row_len as usize;
             let p = g.pixels.len();
             let t = values.map_or(&g.transfer[..], |v| &v[gi][..]);
