@@ -93,6 +93,26 @@ enum Command {
     /// errors against the dense relight and the reference, the three runtime paths timed
     /// (docs/report-vertex.md).
     Vertex(prt_bench::vertex::VertexArgs),
+    /// Writes the generated outdoor scene "the yard" (a ground grid, an editable GGX sphere,
+    /// Blinn-Phong torus and diffuse box; `prt_bake::testing::Yard`) as glTF plus a per-vertex
+    /// bake.toml, at any size, with or without NORMAL attributes.
+    Yard {
+        /// Folder to write yard.gltf, yard.bin and bake.toml into.
+        #[arg(long)]
+        out: PathBuf,
+        /// Leave the NORMAL attributes out (the loader then makes every mesh faceted).
+        #[arg(long)]
+        no_normals: bool,
+        /// Quads per side of the ground grid.
+        #[arg(long, default_value_t = 120)]
+        ground_quads: u32,
+        /// Subdivisions of the sphere (faces: 20 * 4^n).
+        #[arg(long, default_value_t = 5)]
+        sphere_subdivisions: u32,
+        /// The environment map the config names (absolute, or relative to --out).
+        #[arg(long)]
+        environment: Option<PathBuf>,
+    },
 }
 
 fn main() -> ExitCode {
@@ -118,6 +138,31 @@ fn run(cli: Cli) -> Result<()> {
         Command::Basis(args) => prt_bench::basis::run(&args),
         Command::CompareRays(args) => compare_rays::run(&args),
         Command::Vertex(args) => prt_bench::vertex::run(&args),
+        Command::Yard {
+            out,
+            no_normals,
+            ground_quads,
+            sphere_subdivisions,
+            environment,
+        } => {
+            let yard = prt_bake::testing::Yard {
+                ground_quads,
+                sphere_subdivisions,
+                normals: !no_normals,
+                ..Default::default()
+            };
+            let env = match environment {
+                Some(e) => e,
+                None => std::fs::canonicalize("scenes/envmaps/sky.exr")?,
+            };
+            let config = yard.write(&out, &env)?;
+            eprintln!(
+                "wrote {} ({} vertices in the glTF)",
+                config.display(),
+                yard.gltf_vertices()
+            );
+            Ok(())
+        }
         Command::Rays { rays, config, json } => {
             let scene = match config {
                 Some(c) => prt_bake::run::load(&c, &prt_bake::progress::Silent)?.1,

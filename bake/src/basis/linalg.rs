@@ -93,9 +93,120 @@ pub fn qr_r(mut w: Mat<f64>) -> Mat<f64> {
     Mat::from_fn(k, n, |i, j| if i <= j { w[(i, j)] } else { 0.0 })
 }
 
-/// Eigendecomposition of a symmetric matrix; eigenvalues in *nonincreasing* order with the
-/// matching eigenvector columns.
+/// How [`sym_eig`] computed a decomposition.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EigMethod {
+    /// faer's self-adjoint eigendecomposition (tridiagonalization, then QR or divide and
+    /// conquer): fast, and the usual case.
+    Faer,
+    /// The cyclic Jacobi method, after faer reported no convergence: slower (O(n^3) per sweep)
+    /// but it converges for every finite symmetric matrix.
+    Jacobi,
+}
+
+/// A symmetric eigendecomposition: eigenvalues in *nonincreasing* order with the matching
+/// eigenvector columns, and how it was computed.
+#[derive(Clone, Debug)]
+pub struct SymEig {
+    pub vals: Vec<f64>,
+    pub vecs: Mat<f64>,
+    pub method: EigMethod,
+}
+
+/// Eigendecomposition of a symmetric matrix that cannot fail on finite input (a non-finite
+/// entry is an error naming it).
+///
+/// Rows and columns that are exactly zero are deflated first: each is an eigenvector (a unit
+/// vector) of eigenvalue 0, and only the rest is decomposed. faer 0.24's `self_adjoint_evd`
+/// reports `NoConvergence` on matrices made mostly of such rows: the Gram matrix of a
+/// per-vertex cluster whose vertices see almost nothing of the other objects (231 of 240 rows
+/// zero; kept as a test), which stopped whole bakes. Should faer still not converge on the
+/// rest, the cyclic Jacobi method computes it instead ([`EigMethod::Jacobi`]).
+pub fn sym_eig(a: MatRef<'_, f64>) -> Result<SymEig, BasisError> {
+    let n = a.nrows();
+    for j in 0..a.ncols() {
+        for i in 0..n {
+            if !a[(i, j)].is_finite() {
+                return Err(BasisError::Eigen(format!(
+                    "the matrix holds {} at ({i}, {j})",
+                    a[(i, j)]
+                )));
+            }
+        }
+    }
+    let live: Vec<usize> = (0..n)
+        .filter(|&i| (0..n).any(|j| a[(i, j)] != 0.0))
+        .collect();
+    if live.len() == n {
+        return eig_live(a);
+    }
+    // Decompose the live rows only; the zero rows are eigenvectors of eigenvalue 0.
+    let sub = Mat::from_fn(live.len(), live.len(), |i, j| a[(live[i], live[j])]);
+    let part = eig_live(sub.as_ref())?;
+    let dead: Vec<usize> = (0..n).filter(|i| !live.contains(i)).collect();
+    // Merge by value, the decomposed ones first on a tie (the order is deterministic).
+    enum Source {
+        Live(usize),
+        Dead(usize),
+    }
+    let mut order: Vec<(f64, Source)> = part
+        .vals
+        .iter()
+        .enumerate()
+        .map(|(k, &v)| (v, Source::Live(k)))
+        .chain(dead.iter().map(|&d| (0.0, Source::Dead(d))))
+        .collect();
+    order.sort_by(|x, y| {
+        let rank = |s: &Source| matches!(s, Source::Dead(_));
+        y.0.total_cmp(&x.0).then(rank(&x.1).cmp(&rank(&y.1)))
+    });
+    let mut vecs = Mat::<f64>::zeros(n, n);
+    let mut vals = Vec::with_capacity(n);
+    for (col, (v, source)) in order.iter().enumerate() {
+        vals.push(*v);
+        match *source {
+            Source::Live(k) => {
+                for (r, &i) in live.iter().enumerate() {
+                    vecs[(i, col)] = part.vecs[(r, k)];
+                }
+            }
+            Source::Dead(d) => vecs[(d, col)] = 1.0,
+        }
+    }
+    Ok(SymEig {
+        vals,
+        vecs,
+        method: part.method,
+    })
+}
+
+/// [`sym_eig`] without the method: eigenvalues in *nonincreasing* order with the matching
+/// eigenvector columns.
 pub fn sym_eig_desc(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), BasisError> {
+    let e = sym_eig(a)?;
+    Ok((e.vals, e.vecs))
+}
+
+/// faer's decomposition of a finite symmetric matrix, or Jacobi's where faer fails.
+fn eig_live(a: MatRef<'_, f64>) -> Result<SymEig, BasisError> {
+    match faer_eig(a) {
+        Ok((vals, vecs)) => Ok(SymEig {
+            vals,
+            vecs,
+            method: EigMethod::Faer,
+        }),
+        Err(_) => {
+            let (vals, vecs) = jacobi_eig(a);
+            Ok(SymEig {
+                vals,
+                vecs,
+                method: EigMethod::Jacobi,
+            })
+        }
+    }
+}
+
+fn faer_eig(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), BasisError> {
     let n = a.nrows();
     let mut u = Mat::<f64>::zeros(n, n);
     let mut s = Diag::<f64>::zeros(n);
@@ -119,6 +230,68 @@ pub fn sym_eig_desc(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), BasisErr
     let vals: Vec<f64> = (0..n).rev().map(|i| s[i]).collect();
     let vecs = Mat::from_fn(n, n, |i, j| u[(i, n - 1 - j)]);
     Ok((vals, vecs))
+}
+
+/// Sweeps of the cyclic Jacobi method before it stops: it converges quadratically once the
+/// off-diagonal is small, typically in 6-12 sweeps; the cap only bounds a pathological case.
+const JACOBI_SWEEPS: usize = 100;
+
+/// The cyclic Jacobi eigenvalue method (Golub & Van Loan, Matrix Computations, 8.5) on the
+/// lower triangle of `a` (symmetrized): eigenvalues in nonincreasing order and orthonormal
+/// eigenvector columns. Written here rather than taken from a crate because it is only the
+/// fallback of faer's decomposition, and twenty lines.
+fn jacobi_eig(a: MatRef<'_, f64>) -> (Vec<f64>, Mat<f64>) {
+    let n = a.nrows();
+    let mut m = Mat::from_fn(n, n, |i, j| if i >= j { a[(i, j)] } else { a[(j, i)] });
+    let mut v = Mat::<f64>::identity(n, n);
+    let norm: f64 = (0..n)
+        .flat_map(|i| (0..n).map(move |j| (i, j)))
+        .map(|(i, j)| m[(i, j)] * m[(i, j)])
+        .sum::<f64>()
+        .sqrt();
+    for _ in 0..JACOBI_SWEEPS {
+        let off: f64 = (0..n)
+            .flat_map(|i| (0..i).map(move |j| (i, j)))
+            .map(|(i, j)| m[(i, j)] * m[(i, j)])
+            .sum::<f64>()
+            .sqrt();
+        if off <= f64::EPSILON * norm || off == 0.0 {
+            break;
+        }
+        for p in 0..n {
+            for q in p + 1..n {
+                let apq = m[(p, q)];
+                if apq == 0.0 {
+                    continue;
+                }
+                let theta = (m[(q, q)] - m[(p, p)]) / (2.0 * apq);
+                let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+                let t = if theta == 0.0 { 1.0 } else { t };
+                let c = 1.0 / (t * t + 1.0).sqrt();
+                let s = t * c;
+                for k in 0..n {
+                    let (mkp, mkq) = (m[(k, p)], m[(k, q)]);
+                    m[(k, p)] = c * mkp - s * mkq;
+                    m[(k, q)] = s * mkp + c * mkq;
+                }
+                for k in 0..n {
+                    let (mpk, mqk) = (m[(p, k)], m[(q, k)]);
+                    m[(p, k)] = c * mpk - s * mqk;
+                    m[(q, k)] = s * mpk + c * mqk;
+                }
+                for k in 0..n {
+                    let (vkp, vkq) = (v[(k, p)], v[(k, q)]);
+                    v[(k, p)] = c * vkp - s * vkq;
+                    v[(k, q)] = s * vkp + c * vkq;
+                }
+            }
+        }
+    }
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&x, &y| m[(y, y)].total_cmp(&m[(x, x)]).then(x.cmp(&y)));
+    let vals = order.iter().map(|&i| m[(i, i)]).collect();
+    let vecs = Mat::from_fn(n, n, |i, j| v[(i, order[j])]);
+    (vals, vecs)
 }
 
 /// Eigendecomposition of a Hermitian matrix (lower triangle read); eigenvalues in
@@ -375,6 +548,107 @@ pub fn fix_sign(v: &mut [f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The Gram matrix that stopped a per-vertex bake with `NoConvergence` (issue: a ground
+    /// cluster of 240 vertices of which 231 receive no light after one reflection): 240 x 240,
+    /// zero but for these rows and columns.
+    const STUCK_INDEX: [usize; 9] = [0, 16, 32, 48, 64, 80, 96, 112, 224];
+    #[rustfmt::skip]
+    const STUCK_BLOCK: [f64; 81] = [
+        4.765075677085203e-06, 4.032690369194e-06, -7.753602051829985e-06, 1.1435699400010957e-05, -7.761458029617715e-06, -5.5455696369447935e-06, 3.907318223966778e-06, 3.934146817580805e-06, 7.273132036063855e-05,
+        4.032690369194e-06, 3.412871634336323e-06, -6.561884519765734e-06, 9.67804877836302e-06, -6.568533045017396e-06, -4.693223525105005e-06, 3.306769008295287e-06, 3.3294740854898815e-06, 6.15526205738088e-05,
+        -7.753602051829985e-06, -6.561884519765734e-06, 1.2616451207112108e-05, -1.8607860260946374e-05, 1.2629234241343231e-05, 9.023600679073198e-06, -6.35788236148926e-06, -6.401537122208752e-06, -0.0001183464341379583,
+        1.1435699400010957e-05, 9.67804877836302e-06, -1.8607860260946374e-05, 2.7444521268842927e-05, -1.862671381261307e-05, -1.3308805917794158e-05, 9.377168317461289e-06, 9.441554227085022e-06, 0.00017454780846606205,
+        -7.761458029617715e-06, -6.568533045017396e-06, 1.2629234241343231e-05, -1.862671381261307e-05, 1.2642030227391111e-05, 9.032743424087228e-06, -6.364324191012491e-06, -6.408023182894254e-06, -0.00011846634317528443,
+        -5.5455696369447935e-06, -4.693223525105005e-06, 9.023600679073198e-06, -1.3308805917794158e-05, 9.032743424087228e-06, 6.45390434114067e-06, -4.5473160917279965e-06, -4.5785390657645565e-06, -8.46443223948088e-05,
+        3.907318223966778e-06, 3.306769008295287e-06, -6.35788236148926e-06, 9.377168317461289e-06, -6.364324191012491e-06, -4.5473160917279965e-06, 3.203965002436605e-06, 3.225964202419008e-06, 5.9639013681336665e-05,
+        3.934146817580805e-06, 3.3294740854898815e-06, -6.401537122208752e-06, 9.441554227085022e-06, -6.408023182894254e-06, -4.5785390657645565e-06, 3.225964202419008e-06, 3.2481144542385876e-06, 6.004850959896724e-05,
+        7.273132036063855e-05, 6.15526205738088e-05, -0.0001183464341379583, 0.00017454780846606205, -0.00011846634317528443, -8.46443223948088e-05, 5.9639013681336665e-05, 6.004850959896724e-05, 0.08033917353140804,
+    ];
+
+    fn stuck_gram() -> Mat<f64> {
+        let mut g = Mat::<f64>::zeros(240, 240);
+        for (a, &i) in STUCK_INDEX.iter().enumerate() {
+            for (b, &j) in STUCK_INDEX.iter().enumerate() {
+                g[(i, j)] = STUCK_BLOCK[a * STUCK_INDEX.len() + b];
+            }
+        }
+        g
+    }
+
+    /// `|A V - V diag(vals)|` and `|V^T V - I|`, largest entries.
+    fn residuals(a: MatRef<'_, f64>, e: &SymEig) -> (f64, f64) {
+        let n = a.nrows();
+        let av = matmul(a, e.vecs.as_ref());
+        let mut r = 0.0f64;
+        for j in 0..n {
+            for i in 0..n {
+                r = r.max((av[(i, j)] - e.vecs[(i, j)] * e.vals[j]).abs());
+            }
+        }
+        let vtv = matmul_tn(e.vecs.as_ref(), e.vecs.as_ref());
+        let mut o = 0.0f64;
+        for j in 0..n {
+            for i in 0..n {
+                o = o.max((vtv[(i, j)] - if i == j { 1.0 } else { 0.0 }).abs());
+            }
+        }
+        (r, o)
+    }
+
+    #[test]
+    fn the_stuck_gram_matrix_decomposes_and_faer_alone_does_not() {
+        let g = stuck_gram();
+        // The root cause, kept visible: faer's decomposition of the whole matrix fails.
+        assert!(
+            faer_eig(g.as_ref()).is_err(),
+            "faer now converges here: revisit sym_eig"
+        );
+        let e = sym_eig(g.as_ref()).expect("decomposes");
+        assert_eq!(e.vals.len(), 240);
+        // numpy's eigvalsh of the block: 0.08034019404497231, 7.276642024832731e-05, ~0.
+        assert!((e.vals[0] - 0.080_340_194_044_972_31).abs() < 1e-15);
+        assert!((e.vals[1] - 7.276_642_024_832_731e-5).abs() < 1e-15);
+        assert!(e.vals[2..].iter().all(|v| v.abs() < 1e-15));
+        assert!(e.vals.windows(2).all(|w| w[0] >= w[1]));
+        let (r, o) = residuals(g.as_ref(), &e);
+        assert!(r < 1e-15 && o < 1e-12, "{r} {o}");
+        // The zero rows' eigenvectors are their unit vectors.
+        let col = (0..240).find(|&c| e.vecs[(1, c)] != 0.0).unwrap();
+        assert_eq!(e.vecs[(1, col)], 1.0);
+    }
+
+    #[test]
+    fn jacobi_agrees_with_faer_and_non_finite_input_is_an_error() {
+        for (n, seed) in [(1usize, 1u64), (7, 2), (40, 3)] {
+            let mut s = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
+            let mut next = || {
+                s ^= s << 13;
+                s ^= s >> 7;
+                s ^= s << 17;
+                (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+            };
+            let x = Mat::from_fn(n + 3, n, |_, _| next());
+            let a = matmul_tn(x.as_ref(), x.as_ref());
+            let (fv, _) = faer_eig(a.as_ref()).unwrap();
+            let (jv, jvecs) = jacobi_eig(a.as_ref());
+            let e = SymEig {
+                vals: jv.clone(),
+                vecs: jvecs,
+                method: EigMethod::Jacobi,
+            };
+            let top = fv[0].abs().max(1e-300);
+            for (f, j) in fv.iter().zip(&jv) {
+                assert!((f - j).abs() < 1e-12 * top, "n {n}: {f} vs {j}");
+            }
+            let (r, o) = residuals(a.as_ref(), &e);
+            assert!(r < 1e-12 * top && o < 1e-12, "n {n}: {r} {o}");
+        }
+        let mut bad = Mat::<f64>::identity(3, 3);
+        bad[(2, 1)] = f64::NAN;
+        let err = sym_eig(bad.as_ref()).unwrap_err().to_string();
+        assert!(err.contains("NaN") && err.contains("(2, 1)"), "{err}");
+    }
 
     #[test]
     fn svd_and_qr_agree() {

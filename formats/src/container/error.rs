@@ -293,6 +293,15 @@ pub enum FormatError {
         /// Length of the file or header, in bytes.
         len: usize,
     },
+    /// Writer: a streamed tensor's source failed or wrote another number of bytes than it
+    /// declared ([`TensorSource`](super::TensorSource)).
+    #[error("cannot produce tensor '{tensor}': {source}")]
+    Source {
+        /// The tensor concerned.
+        tensor: String,
+        /// What the source reported.
+        source: io::Error,
+    },
     /// Writer: writing, syncing or renaming the file failed.
     #[error("cannot write bake file {}: {source}", .path.display())]
     Write {

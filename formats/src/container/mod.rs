@@ -50,7 +50,7 @@ pub use atomic::write_file_atomic;
 pub use dtype::{Dtype, Element};
 pub use error::FormatError;
 pub use read::{BakeFile, TensorView};
-pub use write::BakeWriter;
+pub use write::{BakeWriter, TensorSource};
 
 /// Value of `__metadata__.format` in every PRT bake file.
 pub const FORMAT_NAME: &str = "prt-bake";

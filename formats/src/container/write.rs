@@ -18,7 +18,68 @@ struct PendingTensor<'a> {
     name: String,
     dtype: Dtype,
     shape: Vec<usize>,
-    data: Cow<'a, [u8]>,
+    data: TensorData<'a>,
+}
+
+/// A tensor's bytes: in memory, or produced on demand by a [`TensorSource`].
+enum TensorData<'a> {
+    Bytes(Cow<'a, [u8]>),
+    Streamed {
+        len: usize,
+        source: Box<dyn TensorSource + 'a>,
+    },
+}
+
+impl TensorData<'_> {
+    fn len(&self) -> usize {
+        match self {
+            TensorData::Bytes(b) => b.len(),
+            TensorData::Streamed { len, .. } => *len,
+        }
+    }
+}
+
+/// Produces a tensor's bytes on demand, so that a file larger than memory can be written from
+/// pieces held elsewhere (a per-vertex bake's units on disk). The writer calls
+/// [`write_to`](Self::write_to) twice: once to compute the tensor's CRC-32 for the header, once
+/// to write it, and checks both times that exactly the declared number of bytes came.
+pub trait TensorSource {
+    /// Writes the tensor's raw little-endian bytes to `out`, the same bytes every call.
+    fn write_to(&self, out: &mut dyn Write) -> io::Result<()>;
+}
+
+/// A [`Write`] that counts bytes and hashes them, for a streamed tensor's checksum pass.
+struct CrcSink {
+    hasher: crc32fast::Hasher,
+    len: usize,
+}
+
+impl Write for CrcSink {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        self.hasher.update(buf);
+        self.len += buf.len();
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> io::Result<()> {
+        Ok(())
+    }
+}
+
+/// A [`Write`] that passes bytes through and counts them.
+struct Counted<'w, W: Write> {
+    inner: &'w mut W,
+    len: usize,
+}
+
+impl<W: Write> Write for Counted<'_, W> {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        self.len += n;
+        Ok(n)
+    }
+    fn flush(&mut self) -> io::Result<()> {
+        self.inner.flush()
+    }
 }
 
 /// Builds a bake file. Tensors are written in the order they were added (so a caller can keep
@@ -72,7 +133,29 @@ impl<'a> BakeWriter<'a> {
         shape: &[usize],
         data: impl Into<Cow<'a, [u8]>>,
     ) -> Result<()> {
-        let data = data.into();
+        self.add_data(name, dtype, shape, TensorData::Bytes(data.into()))
+    }
+
+    /// Adds a tensor of `len` bytes whose bytes `source` produces when the file is laid out
+    /// and written (see [`TensorSource`]); nothing is read until then.
+    pub fn add_streamed(
+        &mut self,
+        name: &str,
+        dtype: Dtype,
+        shape: &[usize],
+        len: usize,
+        source: Box<dyn TensorSource + 'a>,
+    ) -> Result<()> {
+        self.add_data(name, dtype, shape, TensorData::Streamed { len, source })
+    }
+
+    fn add_data(
+        &mut self,
+        name: &str,
+        dtype: Dtype,
+        shape: &[usize],
+        data: TensorData<'a>,
+    ) -> Result<()> {
         check_name(name)?;
         if self.names.contains(name) {
             return Err(FormatError::DuplicateTensor {
@@ -190,7 +273,19 @@ impl<'a> BakeWriter<'a> {
         w.write_all(&layout.header)?;
         for slot in &layout.slots {
             match slot {
-                Slot::Tensor(i) => w.write_all(&self.tensors[*i].data)?,
+                Slot::Tensor(i) => match &self.tensors[*i].data {
+                    TensorData::Bytes(b) => w.write_all(b)?,
+                    TensorData::Streamed { len, source } => {
+                        let mut counted = Counted { inner: w, len: 0 };
+                        source.write_to(&mut counted)?;
+                        if counted.len != *len {
+                            return Err(io::Error::other(format!(
+                                "tensor '{}': its source wrote {} bytes, {len} declared",
+                                self.tensors[*i].name, counted.len
+                            )));
+                        }
+                    }
+                },
                 Slot::Pad(n) => w.write_all(&[0u8; TENSOR_ALIGN][..*n])?,
             }
         }
@@ -217,11 +312,35 @@ impl<'a> BakeWriter<'a> {
             offset = end;
         }
 
-        let crcs: BTreeMap<&str, String> = self
-            .tensors
-            .iter()
-            .map(|t| (t.name.as_str(), hex32(crc32fast::hash(&t.data))))
-            .collect();
+        let mut crcs: BTreeMap<&str, String> = BTreeMap::new();
+        for t in &self.tensors {
+            let crc = match &t.data {
+                TensorData::Bytes(b) => crc32fast::hash(b),
+                TensorData::Streamed { len, source } => {
+                    let mut sink = CrcSink {
+                        hasher: crc32fast::Hasher::new(),
+                        len: 0,
+                    };
+                    source
+                        .write_to(&mut sink)
+                        .map_err(|source| FormatError::Source {
+                            tensor: t.name.clone(),
+                            source,
+                        })?;
+                    if sink.len != *len {
+                        return Err(FormatError::Source {
+                            tensor: t.name.clone(),
+                            source: io::Error::other(format!(
+                                "its source wrote {} bytes, {len} declared",
+                                sink.len
+                            )),
+                        });
+                    }
+                    sink.hasher.finalize()
+                }
+            };
+            crcs.insert(t.name.as_str(), hex32(crc));
+        }
         let mut meta: BTreeMap<String, String> = BTreeMap::new();
         meta.insert(keys::FORMAT.into(), FORMAT_NAME.into());
         meta.insert(keys::SCHEMA_VERSION.into(), SCHEMA_VERSION.to_string());

@@ -646,3 +646,78 @@ fn empty_bake_is_valid() {
     assert!(e.contains("no tensors"), "{e}");
     fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A streamed tensor from pieces: a 4-byte counter run, written in chunks of `chunk`.
+struct Counter {
+    values: u32,
+    chunk: usize,
+    /// Extra bytes written at the end (a source that breaks its promise).
+    extra: usize,
+}
+
+impl prt_formats::container::TensorSource for Counter {
+    fn write_to(&self, out: &mut dyn std::io::Write) -> std::io::Result<()> {
+        let bytes: Vec<u8> = (0..self.values).flat_map(|v| v.to_le_bytes()).collect();
+        for c in bytes.chunks(self.chunk) {
+            out.write_all(c)?;
+        }
+        out.write_all(&vec![7u8; self.extra])
+    }
+}
+
+#[test]
+fn streamed_tensors_give_the_same_file_as_tensors_in_memory() {
+    let dir = scratch("streamed");
+    let values: Vec<u32> = (0..1000).collect();
+    let pad = vec![1.5f32; 3];
+    let mut a = BakeWriter::new();
+    a.add_f32("pad", &[3], &pad).unwrap();
+    a.add_u32("counter", &[10, 100], &values).unwrap();
+    a.set_metadata(json!({"k": 1}));
+    let mut b = BakeWriter::new();
+    b.add_f32("pad", &[3], &pad).unwrap();
+    b.add_streamed(
+        "counter",
+        Dtype::U32,
+        &[10, 100],
+        4000,
+        Box::new(Counter {
+            values: 1000,
+            chunk: 37,
+            extra: 0,
+        }),
+    )
+    .unwrap();
+    b.set_metadata(json!({"k": 1}));
+    assert_eq!(a.to_bytes().unwrap(), b.to_bytes().unwrap());
+    let path = dir.join("s.prtbake");
+    b.write_atomic(&path).unwrap();
+    assert_eq!(fs::read(&path).unwrap(), a.to_bytes().unwrap());
+    let f = BakeFile::open(&path).unwrap();
+    assert_eq!(f.tensor("counter").unwrap().as_u32().unwrap(), &values[..]);
+
+    // A declared length that does not match the shape, and a source that writes more than
+    // it declared, are refused naming the tensor; nothing is written.
+    let mut c = BakeWriter::new();
+    let bad = Box::new(Counter {
+        values: 1000,
+        chunk: 64,
+        extra: 0,
+    });
+    assert!(c
+        .add_streamed("counter", Dtype::U32, &[999], 4000, bad)
+        .is_err());
+    let liar = Box::new(Counter {
+        values: 1000,
+        chunk: 64,
+        extra: 4,
+    });
+    c.add_streamed("counter", Dtype::U32, &[1000], 4000, liar)
+        .unwrap();
+    let e = c
+        .write_atomic(dir.join("liar.prtbake"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("counter") && e.contains("4004"), "{e}");
+    assert!(!dir.join("liar.prtbake").exists());
+}

@@ -1,4 +1,11 @@
-//! Scene construction in code, for tests, benchmarks and analytic checks (no glTF needed).
+//! Scene construction in code, for tests, benchmarks and analytic checks (no glTF needed),
+//! and generated glTF scenes (`gltf_writer.rs`, `yard.rs`) that go through the user's loader.
+
+mod gltf_writer;
+mod yard;
+
+pub use gltf_writer::{GltfMaterial, GltfMesh, GltfWriter};
+pub use yard::Yard;
 
 use glam::{DVec3, Vec2, Vec3};
 
