@@ -47,14 +47,29 @@ pub enum BakeError {
     /// The basis error target is not a positive relative error.
     #[error("the basis error target must be a positive relative error, e.g. 0.01 (got {0})")]
     BadErrorTarget(f64),
-    /// The estimated working memory exceeds the caller's limit.
-    #[error("the bake needs about {} but --max-memory is {}: lower the resolution, the reflections or the basis count", crate::units::human_bytes(*.needed), crate::units::human_bytes(*.limit))]
+    /// The estimated working memory exceeds the limit (`--max-memory`, or by default the
+    /// memory the machine has available).
+    #[error("the bake needs about {} (estimated before tracing) but {from} is {}: {advice}", crate::units::human_bytes(*.needed), crate::units::human_bytes(*.limit))]
     MemoryLimit {
         /// Estimated bytes.
         needed: u64,
         /// The limit in bytes.
         limit: u64,
+        /// Where the limit comes from ("--max-memory", "the available memory").
+        from: &'static str,
+        /// What to change.
+        advice: String,
     },
+    /// Sharding or merging failed (a bad `--shard`, a missing, duplicated, truncated or
+    /// foreign shard).
+    #[error(transparent)]
+    Shard(#[from] crate::shard::ShardError),
+    /// The caller cancelled the work ([`crate::progress::Progress::cancelled`]).
+    #[error(transparent)]
+    Cancelled(#[from] crate::progress::Cancelled),
+    /// The checkpoint of a bake could not be made or resumed.
+    #[error(transparent)]
+    Checkpoint(#[from] crate::shard::CheckpointError),
     /// Laying out, baking or writing the per-pixel tensors failed.
     #[error(transparent)]
     Pixel(#[from] PixelError),
@@ -76,4 +91,17 @@ pub enum BakeError {
         /// The parameters it has.
         valid: String,
     },
+}
+
+impl BakeError {
+    /// Whether the caller cancelled the work ([`crate::progress::Progress::cancelled`]), in
+    /// whichever mode's error it surfaced.
+    pub fn is_cancelled(&self) -> bool {
+        matches!(
+            self,
+            BakeError::Cancelled(_)
+                | BakeError::Vertex(crate::vertex::VertexError::Cancelled(_))
+                | BakeError::Pixel(crate::pixel::PixelError::Cancelled(_))
+        )
+    }
 }

@@ -27,8 +27,7 @@ use crate::scene::Scene;
 
 /// Most slots a material may have at one vertex.
 pub const MAX_SLOTS: usize = 16;
-/// Most reflections along a path.
-pub const MAX_REFLECTIONS: usize = 4;
+pub use crate::sampling::MAX_REFLECTIONS;
 
 /// A shading point: hit position, normals facing the side the ray came from, frame, UV.
 #[derive(Clone, Copy, Debug)]

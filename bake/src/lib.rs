@@ -17,6 +17,7 @@ pub mod reference;
 pub mod run;
 pub mod sampling;
 pub mod scene;
+pub mod shard;
 pub mod testing;
 pub mod units;
 pub mod vertex;

@@ -23,7 +23,19 @@ pub trait Progress: Sync {
     fn note(&self, _text: &str) {}
     /// Something that may be wrong but does not stop the work.
     fn warn(&self, _text: &str) {}
+    /// Whether the caller wants the work stopped (Ctrl-C in a notebook, a cancel button). Long
+    /// calls ask between units of work (a per-pixel bake between rows, a per-vertex bake between
+    /// batches of units) and return [`Cancelled`]: nothing is written, and a per-vertex bake's
+    /// checkpoint keeps the finished units for a resume.
+    fn cancelled(&self) -> bool {
+        false
+    }
 }
+
+/// The error a long call returns when [`Progress::cancelled`] said so.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("cancelled: nothing was written (a per-vertex bake keeps its finished units in its checkpoint; --resume continues it)")]
+pub struct Cancelled;
 
 /// Reports nothing.
 #[derive(Clone, Copy, Debug, Default)]
@@ -51,6 +63,14 @@ impl<'a> Stage<'a> {
     pub(crate) fn restored(&self, steps: u64) {
         if let Some(p) = self.0 {
             p.restored(steps);
+        }
+    }
+
+    /// [`Cancelled`] when the caller asked to stop.
+    pub(crate) fn check(&self) -> Result<(), Cancelled> {
+        match self.0 {
+            Some(p) if p.cancelled() => Err(Cancelled),
+            _ => Ok(()),
         }
     }
 }

@@ -93,6 +93,18 @@ enum Command {
     /// errors against the dense relight and the reference, the three runtime paths timed
     /// (docs/report-vertex.md).
     Vertex(prt_bench::vertex::VertexArgs),
+    /// Per-vertex bakes at scale: time and peak memory against the vertex count (10K to 1M) on
+    /// generated yards, and the shard balance for N = 4 and 16 (docs/report-vertex.md, "Scale").
+    Scale(prt_bench::vertex::scale::ScaleArgs),
+    /// Compares linear images (EXR): relative L2 of each against the last, and the ratio of
+    /// their means (a bias shows as a ratio away from 1).
+    Diff {
+        /// Images; the last is the reference.
+        #[arg(required = true, num_args = 2..)]
+        images: Vec<PathBuf>,
+        #[arg(long)]
+        json: bool,
+    },
     /// Writes the generated outdoor scene "the yard" (a ground grid, an editable GGX sphere,
     /// Blinn-Phong torus and diffuse box; `prt_bake::testing::Yard`) as glTF plus a per-vertex
     /// bake.toml, at any size, with or without NORMAL attributes.
@@ -138,6 +150,11 @@ fn run(cli: Cli) -> Result<()> {
         Command::Basis(args) => prt_bench::basis::run(&args),
         Command::CompareRays(args) => compare_rays::run(&args),
         Command::Vertex(args) => prt_bench::vertex::run(&args),
+        Command::Scale(args) => {
+            let section = prt_bench::vertex::scale::run(&args)?;
+            print!("{section}");
+            Ok(())
+        }
         Command::Yard {
             out,
             no_normals,
@@ -161,6 +178,40 @@ fn run(cli: Cli) -> Result<()> {
                 config.display(),
                 yard.gltf_vertices()
             );
+            Ok(())
+        }
+        Command::Diff { images, json } => {
+            let read = |p: &PathBuf| -> Result<(usize, usize, Vec<[f32; 3]>)> {
+                prt_formats::read_exr_rgb(p).map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))
+            };
+            let Some((last, rest)) = images.split_last() else {
+                bail!("give at least two images");
+            };
+            let (w, h, reference) = read(last)?;
+            let mean = |v: &[[f32; 3]]| {
+                v.iter().map(|p| f64::from(p[0] + p[1] + p[2])).sum::<f64>()
+                    / (3 * v.len().max(1)) as f64
+            };
+            let mut rows = Vec::new();
+            for p in rest {
+                let (w2, h2, img) = read(p)?;
+                if (w2, h2) != (w, h) {
+                    bail!(
+                        "{} is {w2}x{h2}, {} is {w}x{h}",
+                        p.display(),
+                        last.display()
+                    );
+                }
+                let rel = prt_bake::metrics::relative_l2(&img, &reference);
+                let ratio = mean(&img) / mean(&reference);
+                if !json {
+                    println!("{}: rel. L2 {rel:.4}, mean ratio {ratio:.4}", p.display());
+                }
+                rows.push(serde_json::json!({"image": p, "relative_l2": rel, "mean_ratio": ratio}));
+            }
+            if json {
+                println!("{}", serde_json::Value::Array(rows));
+            }
             Ok(())
         }
         Command::Rays { rays, config, json } => {

@@ -60,8 +60,16 @@ pub struct TensorCompression {
     /// The largest vertex rank over the clusters: the width of the `vertex` tensor.
     pub vertex_rank: u32,
     /// Relative L2 (Frobenius) error of the approximation over the group, before storage
-    /// rounding.
+    /// rounding, against the dense tensor.
     pub error: f32,
+    /// The dense tensor's estimated Monte Carlo noise relative to its norm (docs/vertex.md,
+    /// "What the error target means"); absent in files from before the estimate.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise: Option<f32>,
+    /// The approximation's error beyond that noise, relative to the dense tensor's signal:
+    /// what `error_target` bounds; absent in files from before the estimate.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub beyond_noise: Option<f32>,
 }
 
 /// Where each cluster's factors and core lie in the flat tensors.

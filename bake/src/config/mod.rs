@@ -27,10 +27,10 @@ mod write;
 /// Largest accepted image side in pixels; anything larger is almost certainly a typo.
 pub const MAX_IMAGE_SIDE: u32 = 16384;
 /// Largest accepted samples per pixel (or per vertex).
-pub const MAX_SPP: u32 = 1 << 20;
+pub use crate::sampling::MAX_SPP;
 /// Largest accepted number of reflections per path: what the integrator supports (one limit,
 /// so a config can never ask for more than is rendered).
-pub const MAX_REFLECTIONS: u32 = crate::integrator::MAX_REFLECTIONS as u32;
+pub const MAX_REFLECTIONS: u32 = crate::sampling::MAX_REFLECTIONS as u32;
 /// Largest accepted `emission_oversampling`.
 pub const MAX_EMISSION_OVERSAMPLING: u32 = 64;
 /// Largest accepted `[basis] count`.
@@ -41,6 +41,17 @@ pub const MAX_BASIS_COUNT: u32 = 1024;
 pub enum Mode {
     Pixel,
     Vertex,
+}
+
+/// What a mesh without NORMAL attributes is baked with (`missing_normals`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MissingNormals {
+    /// Flat normals, one vertex per triangle corner: the glTF rule (spec 3.7.2.1), faceted.
+    #[default]
+    Flat,
+    /// Smooth normals: the area-weighted mean of the faces around each shared vertex.
+    Smooth,
 }
 
 /// Environment lighting as written in the config.
@@ -117,6 +128,8 @@ pub struct BakeConfig {
     /// Number of reflections along a path: 1 = direct only, 2 = direct + one bounce, ...
     pub reflections: u32,
     pub seed: u64,
+    /// Normals for meshes without NORMAL attributes ([`MissingNormals`]; default flat).
+    pub missing_normals: MissingNormals,
     pub environment: EnvironmentConfig,
     /// Keyed by glTF material name, in file order.
     pub materials: Vec<(String, MaterialConfig)>,
@@ -156,7 +169,7 @@ pub enum ConfigError {
 
 pub const DEFAULT_WIDTH: u32 = 256;
 pub const DEFAULT_HEIGHT: u32 = 256;
-pub const DEFAULT_SPP: u32 = 64;
+pub use crate::sampling::DEFAULT_SPP;
 pub const DEFAULT_REFLECTIONS: u32 = 2;
 
 impl BakeConfig {
@@ -202,6 +215,7 @@ impl BakeConfig {
             emission_oversampling: DEFAULT_EMISSION_OVERSAMPLING,
             reflections: DEFAULT_REFLECTIONS,
             seed: 0,
+            missing_normals: MissingNormals::Flat,
             environment: EnvironmentConfig::Color(Vec3::ZERO),
             materials: Vec::new(),
             basis: None,
@@ -264,6 +278,7 @@ struct RawConfig {
     emission_oversampling: Option<u32>,
     reflections: Option<u32>,
     seed: Option<u64>,
+    missing_normals: Option<MissingNormals>,
     environment: Option<RawEnvironment>,
     #[serde(default)]
     materials: OrderedTables<RawMaterial>,
@@ -562,6 +577,7 @@ impl RawConfig {
             emission_oversampling,
             reflections,
             seed: self.seed.unwrap_or(0),
+            missing_normals: self.missing_normals.unwrap_or_default(),
             environment,
             materials,
             basis: self.basis,

@@ -41,10 +41,7 @@ pub struct VertexConfig {
     pub vertex_rank: Option<u32>,
 }
 
-/// `[vertex] secondary`'s default (N2).
-pub const DEFAULT_SECONDARY: u32 = 4;
-/// Largest accepted `[vertex] secondary`.
-pub const MAX_SECONDARY: u32 = 64;
+pub use crate::vertex::{DEFAULT_SECONDARY, MAX_SECONDARY};
 
 impl VertexConfig {
     /// N2, the default filled in.

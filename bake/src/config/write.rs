@@ -8,7 +8,7 @@ use std::path::Path;
 
 use glam::Vec3;
 
-use super::{BakeConfig, EnvironmentConfig, Mode};
+use super::{BakeConfig, EnvironmentConfig, MissingNormals, Mode};
 
 impl BakeConfig {
     /// The config as TOML text that [`BakeConfig::parse`] (given the same `config_path`) turns
@@ -37,6 +37,9 @@ impl BakeConfig {
         }
         let _ = writeln!(w, "reflections = {}", self.reflections);
         let _ = writeln!(w, "seed = {}", self.seed);
+        if self.missing_normals == MissingNormals::Smooth {
+            let _ = writeln!(w, "missing_normals = \"smooth\"");
+        }
 
         let _ = writeln!(w, "\n[environment]");
         match &self.environment {

@@ -119,6 +119,49 @@ pub fn bake_with(
     progress: Option<&dyn Progress>,
 ) -> Result<PixelBake, PixelError> {
     let start = Instant::now();
+    let (common, basis_tables) = pixel_common(integ, layout, opts)?;
+    let all: Vec<u32> = (0..opts.height).collect();
+    let rows = trace_rows(integ, layout, opts, &all, progress)?;
+    let trace_seconds = start.elapsed().as_secs_f64();
+    let mut bake = finish_rows(&common, rows, basis_tables);
+    bake.timings = BakeTimings {
+        trace_seconds,
+        bake_seconds: start.elapsed().as_secs_f64(),
+        rays_per_second: bake.meta.stats.rays as f64 / trace_seconds.max(1e-9),
+    };
+    Ok(bake)
+}
+
+/// What one image row of the bake produced: the emission of its pixels and, per pixel and
+/// visible material, its dense transfer row (divided by spp).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RowOut {
+    /// `[width, 3]`.
+    pub emission: Vec<f32>,
+    /// (pixel, material, row) in pixel order, materials as the sink found them.
+    pub entries: Vec<(u32, u32, Vec<f32>)>,
+    /// Rays traced for the row.
+    pub rays: u64,
+}
+
+/// What finishing the rows needs besides them: the metadata with every figure known before
+/// tracing (its groups and the figures the rows add are filled in by [`finish_rows`]), the
+/// slot count, the compression rank. A shard file carries it, so shards merge without the
+/// scene.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct PixelCommon {
+    pub meta: PixelBakeMeta,
+    /// Global slots J.
+    pub total_slots: usize,
+    pub compress_rank: Option<usize>,
+}
+
+/// The bake's common part and its basis tables (checks the integrator against the options).
+pub fn pixel_common(
+    integ: &Integrator,
+    layout: &SlotLayout,
+    opts: &PixelBakeOptions,
+) -> Result<(PixelCommon, Vec<Vec<f32>>), PixelError> {
     let reflections = opts.reflections as usize;
     if (integ.width, integ.height, integ.reflections) != (opts.width, opts.height, reflections) {
         return Err(PixelError::IntegratorMismatch {
@@ -131,21 +174,68 @@ pub fn bake_with(
         });
     }
     let scene = integ.scene;
+    let plan = integ.emission_plan(opts.emission_oversampling);
+    let (bases_meta, basis_tables) = persisted_bases(&layout.bases);
+    let cam = &scene.camera;
+    let meta = PixelBakeMeta {
+        pixel_schema_version: PIXEL_SCHEMA_VERSION,
+        width: opts.width,
+        height: opts.height,
+        spp: opts.spp.max(1),
+        emission_oversampling: Some(opts.emission_oversampling.max(1)),
+        reflections: opts.reflections,
+        seed: opts.seed,
+        channels: layout.channels as u32,
+        tint: layout.tint.to_array(),
+        precision: opts.precision,
+        materials: layout.materials.clone(),
+        bases: bases_meta,
+        groups: Vec::new(),
+        camera: CameraMeta {
+            position: cam.position.to_array(),
+            forward: cam.forward.to_array(),
+            up: cam.up.to_array(),
+            yfov: cam.yfov,
+        },
+        stats: BakeStats {
+            rays: plan.probe_rays(),
+            dense_values: 0,
+            stored_values: 0,
+            allocation: layout.reasons.clone(),
+            triangles: scene.triangles.len() as u64,
+        },
+    };
+    Ok((
+        PixelCommon {
+            meta,
+            total_slots: layout.total_slots,
+            compress_rank: opts.compress_rank,
+        },
+        basis_tables,
+    ))
+}
+
+/// Traces image rows `ys` (in that order, each from its own random streams, so any subset
+/// gives the same rows as a whole bake). `progress` is advanced once per row.
+pub fn trace_rows(
+    integ: &Integrator,
+    layout: &SlotLayout,
+    opts: &PixelBakeOptions,
+    ys: &[u32],
+    progress: Option<&dyn Progress>,
+) -> Result<Vec<RowOut>, PixelError> {
+    let reflections = opts.reflections as usize;
+    let scene = integ.scene;
     let model = BakeModel::new(scene, layout);
-    let (w, h) = (opts.width, opts.height);
+    let w = opts.width;
     let spp = opts.spp.max(1);
     let inv = 1.0 / spp as f32;
-
-    struct RowOut {
-        emission: Vec<f32>,
-        entries: Vec<(u32, u32, Vec<f32>)>,
-        rays: u64,
-    }
     let plan = integ.emission_plan(opts.emission_oversampling);
-    let stage = Stage::start(progress, "baking", h as u64);
-    let rows: Vec<RowOut> = (0..h)
-        .into_par_iter()
-        .map(|y| {
+    let stage = Stage::start(progress, "baking", ys.len() as u64);
+    let rows: Vec<RowOut> = ys
+        .par_iter()
+        .map(|&y| {
+            stage.check()?;
             let mut out = RowOut {
                 emission: Vec::with_capacity(3 * w as usize),
                 entries: Vec::new(),
@@ -178,17 +268,28 @@ pub fn bake_with(
                 }
             }
             stage.advance(1);
-            out
+            Ok(out)
         })
-        .collect();
-    drop(stage);
-    let trace_seconds = start.elapsed().as_secs_f64();
+        .collect::<Result<_, PixelError>>()?;
+    Ok(rows)
+}
 
+/// The bake from every row of the image, in order: gathered per material, compacted to the
+/// slots that carry light, compressed when asked, with the metadata's groups and figures.
+/// Timings are left at zero (the caller knows them).
+pub fn finish_rows(
+    common: &PixelCommon,
+    rows: Vec<RowOut>,
+    basis_tables: Vec<Vec<f32>>,
+) -> PixelBake {
+    let mut meta = common.meta.clone();
+    let reflections = meta.reflections as usize;
+    let nmat = meta.materials.len();
+    let (w, h) = (meta.width, meta.height);
     // Gather per material, in pixel order.
-    let nmat = layout.materials.len();
     let mut emission = Vec::with_capacity((w * h * 3) as usize);
     let mut per_mat: Vec<(Vec<u32>, Vec<Vec<f32>>)> = vec![(Vec::new(), Vec::new()); nmat];
-    let mut rays = plan.probe_rays();
+    let mut rays = meta.stats.rays;
     for r in rows {
         emission.extend(r.emission);
         rays += r.rays;
@@ -199,8 +300,8 @@ pub fn bake_with(
     }
 
     // Compact each group to the slots that carry light into it.
-    let jn = layout.total_slots;
-    let c = layout.channels;
+    let jn = common.total_slots;
+    let c = meta.channels as usize;
     let mut groups_meta = Vec::new();
     let mut groups = Vec::new();
     let mut dense_values = 0u64;
@@ -209,12 +310,12 @@ pub fn bake_with(
         if pixels.is_empty() {
             continue;
         }
-        let n0 = layout.materials[m].slots.len();
+        let n0 = meta.materials[m].slots.len();
         let active = active_slots(&rows, n0, jn, reflections, c);
         let (compact_len, compact) = compact_rows(&rows, n0, jn, &active, reflections, c);
         dense_values += rows.iter().map(|r| r.len() as u64).sum::<u64>();
         stored_values += compact.len() as u64;
-        let compressed = opts
+        let compressed = common
             .compress_rank
             .map(|k| pca_rows(&compact, pixels.len(), compact_len, k));
         groups_meta.push(GroupMeta {
@@ -232,47 +333,15 @@ pub fn bake_with(
             compressed,
         });
     }
-
-    let (bases_meta, basis_tables) = persisted_bases(&layout.bases);
-    let cam = &scene.camera;
-    let stats = BakeStats {
-        rays,
-        dense_values,
-        stored_values,
-        allocation: layout.reasons.clone(),
-        triangles: scene.triangles.len() as u64,
-    };
-    let meta = PixelBakeMeta {
-        pixel_schema_version: PIXEL_SCHEMA_VERSION,
-        width: w,
-        height: h,
-        spp,
-        emission_oversampling: Some(opts.emission_oversampling.max(1)),
-        reflections: opts.reflections,
-        seed: opts.seed,
-        channels: c as u32,
-        tint: layout.tint.to_array(),
-        precision: opts.precision,
-        materials: layout.materials.clone(),
-        bases: bases_meta,
-        groups: groups_meta,
-        camera: CameraMeta {
-            position: cam.position.to_array(),
-            forward: cam.forward.to_array(),
-            up: cam.up.to_array(),
-            yfov: cam.yfov,
-        },
-        stats,
-    };
-    Ok(PixelBake {
+    meta.groups = groups_meta;
+    meta.stats.rays = rays;
+    meta.stats.dense_values = dense_values;
+    meta.stats.stored_values = stored_values;
+    PixelBake {
         meta,
-        timings: BakeTimings {
-            trace_seconds,
-            bake_seconds: start.elapsed().as_secs_f64(),
-            rays_per_second: rays as f64 / trace_seconds.max(1e-9),
-        },
+        timings: BakeTimings::default(),
         emission,
         groups,
         basis_tables,
-    })
+    }
 }

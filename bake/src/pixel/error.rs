@@ -3,6 +3,9 @@
 /// Why a per-pixel bake could not be made or written.
 #[derive(Debug, thiserror::Error)]
 pub enum PixelError {
+    /// The caller cancelled the bake ([`crate::progress::Progress::cancelled`]).
+    #[error(transparent)]
+    Cancelled(#[from] crate::progress::Cancelled),
     /// An editable glossy material's family has no basis among those given.
     #[error(
         "material '{material}' is editable with family {family} but no basis for it was built"

@@ -18,16 +18,20 @@ mod error;
 mod layout;
 pub(crate) mod memory;
 mod model;
+mod pieces;
 mod sink;
 mod write;
 
 pub(crate) use bake::persisted_bases;
-pub use bake::{bake, bake_with, BakeTimings, GroupData, PixelBake, PixelBakeOptions};
+pub use bake::{
+    bake, bake_with, finish_rows, pixel_common, trace_rows, BakeTimings, GroupData, PixelBake,
+    PixelBakeOptions, PixelCommon, RowOut,
+};
 pub use compress::{pca_rows, Compressed};
 pub use error::PixelError;
 pub use layout::{SlotLayout, SlotPlan};
 pub use memory::{estimate_memory, MemoryEstimate};
 pub use model::BakeModel;
+pub use pieces::{pixel_fingerprints, row_from_piece, row_piece};
 pub use prt_formats::pixel::{names, Precision};
-pub(crate) use write::add_basis_tables;
 pub use write::{to_f16_scaled, write_bake_file};

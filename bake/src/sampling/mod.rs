@@ -5,6 +5,14 @@
 //! between pixels. The baker and the reference tracer draw from the same streams in the same
 //! order, which is what makes the bake-vs-reference exactness test possible.
 
+/// Longest path in reflections: what the path samplers prepare draws for (`sobol.rs` sizes its
+/// tables by it), the integrator's limit and the config's (`reflections`).
+pub const MAX_REFLECTIONS: usize = 4;
+/// Largest accepted samples per pixel (or directions per vertex, N1).
+pub const MAX_SPP: u32 = 1 << 20;
+/// Default samples per pixel (or directions per vertex, N1).
+pub const DEFAULT_SPP: u32 = 64;
+
 mod sobol;
 
 pub use sobol::{PathSampler, PixelSampler};

@@ -139,9 +139,9 @@ fn unit(x: u32) -> f32 {
 }
 
 /// Most draws [`PixelSampler`] prepares: the camera jitter and five per vertex for the longest
-/// path (`integrator::MAX_REFLECTIONS`). Draws past the prepared ones take independent random
+/// path (`sampling::MAX_REFLECTIONS`). Draws past the prepared ones take independent random
 /// numbers, which keeps them unbiased.
-const TABLE_DRAWS: usize = 1 + 5 * crate::integrator::MAX_REFLECTIONS;
+const TABLE_DRAWS: usize = 1 + 5 * super::MAX_REFLECTIONS;
 
 /// Largest spp whose shuffles are tabulated (at most 21 draws x 4096 x 4 bytes = 344 KB per
 /// thread);

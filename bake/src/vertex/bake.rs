@@ -1,265 +1,201 @@
-//! The bake itself: every group's vertices traced in fixed blocks (rayon), each vertex's T0
-//! rows Haar-truncated, the results placed by vertex index, each group converted to its
-//! storage precision as soon as it is done (so only one group is ever held in f32), and the
-//! metadata assembled (deterministic figures only; timings are returned beside it).
+//! The per-vertex bake, unit by unit (docs/vertex.md, "Bounded memory"): batches of units
+//! traced over all threads, each unit then compressed and saved as a piece
+//! ([`PieceStore`]); the file assembled from the pieces (`assemble.rs`). Only the units in
+//! flight are ever held: the batch is as many units as fit [`BATCH_BYTES`] (at least one, at
+//! most one per thread), so memory does not grow with the vertex count.
+//!
+//! What is known before tracing (the metadata but for the figures the pieces add up, the mesh,
+//! the environment, the bases) is the bake's common part ([`vertex_common`]): a shard file
+//! carries it, so shards merge without the scene.
 
+use std::borrow::Cow;
 use std::time::Instant;
 
 use glam::Vec3;
 use prt_formats::basis::{BrdfBasis, ShadingBasis};
 use prt_formats::pixel::CameraMeta;
 use prt_formats::vertex::{
-    shading_tables_mut, EnvironmentMeta, ShadingMeta, TextureMeta, VertexBakeMeta, VertexBakeStats,
-    VertexGroupMeta, VERTEX_SCHEMA_VERSION,
+    names, shading_tables, shading_tables_mut, EnvironmentMeta, ShadingMeta, TextureMeta,
+    VertexBakeMeta, VertexBakeStats, VertexGroupMeta, VERTEX_SCHEMA_VERSION,
 };
+use prt_formats::Dtype;
 use rayon::prelude::*;
 
 use crate::integrator::Integrator;
 use crate::progress::{Progress, Stage};
 use crate::scene::{Environment, Scene};
+use crate::shard::{CommonTensor, PieceStore};
 
-use super::buffers::GroupBuffers;
-use super::checkpoint::Checkpoint;
-use super::compress::{compress_group, GroupShape};
+use super::assemble::VertexCommon;
 use super::error::VertexError;
-use super::plan::{persisted, VertexPlan, BLOCK_VERTICES};
-use super::t0_choice::{choose_t0_terms, cut_rows, T0_ERROR_SHARE};
+use super::plan::{persisted, VertexPlan};
 use super::trace::VertexTracer;
-use super::write::{store, Stored};
-use super::{MeshData, VertexBake, VertexBakeOptions, VertexGroupData};
+use super::unit::{finish_unit, trace_units, traced_from_piece, traced_piece, TracedUnit};
+use super::units::Unit;
+use super::VertexBakeOptions;
 
-/// Vertices whose results are gathered before being appended to their group's buffers: bounds
-/// the memory of finished blocks while keeping both threads busy. Also the checkpoint's
-/// granularity: a killed bake loses at most the wave it was tracing.
-pub const WAVE_VERTICES: usize = 512;
+/// Bytes of dense unit tensors held at once: units in flight are as many as fit (at least
+/// one). Bounds the bake's working memory whatever the vertex count (docs/vertex.md).
+pub const BATCH_BYTES: u64 = 1 << 30;
 
 /// Wall-clock figures of a per-vertex bake (not stored in the file).
 #[derive(Clone, Copy, Debug, Default, serde::Serialize)]
 pub struct VertexTimings {
-    /// The trace (T0, T1, T2 of every vertex; reading the checkpoint's waves instead when
-    /// resuming), Haar truncation and conversion included, compression not.
+    /// Tracing the units (T0, T1, T2 of every vertex traced by this run), Haar truncation
+    /// included, compression not.
     pub trace_seconds: f64,
-    /// Clustering and compressing T1 and T2 (0 for a dense bake).
+    /// Compressing T1 and T2 unit by unit (0 for a dense bake).
     pub compress_seconds: f64,
+    /// Writing the file from the pieces.
+    pub write_seconds: f64,
     /// The whole bake call.
     pub bake_seconds: f64,
     /// Vertices traced per second of tracing (those restored from a checkpoint left out).
     pub vertices_per_second: f64,
-    /// Rays of the trace (not the pre-pass, nor those of restored vertices) per second of
+    /// Rays of the trace (not the pre-pass, nor those of restored units) per second of
     /// tracing.
     pub rays_per_second: f64,
 }
 
-/// Traces the vertices of `vertices` in order into buffers.
-fn trace_block(tracer: &VertexTracer, vertices: &[u32]) -> Result<GroupBuffers, VertexError> {
-    let mut out = GroupBuffers::default();
-    for &v in vertices {
-        let r = tracer.trace(v)?;
-        let (index, value, total, dropped) = tracer.haar_terms(&r)?;
-        out.t0_index.extend(index);
-        out.t0_value.extend(value);
-        out.visibility.extend(r.visibility_u8());
-        out.t1.extend(r.t1);
-        out.t2.extend(r.t2);
-        out.rays += r.rays;
-        out.t0_total += total;
-        out.t0_dropped += dropped;
-    }
-    Ok(out)
+/// What [`bake_units`] did.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct UnitsDone {
+    /// Units traced (and compressed) by this run.
+    pub traced: usize,
+    /// Units compressed from their kept traced tensors.
+    pub recompressed: usize,
+    /// Units whose finished piece was already in the store.
+    pub restored: usize,
+    /// Vertices and rays traced by this run.
+    pub traced_vertices: u64,
+    pub traced_rays: u64,
+    pub trace_seconds: f64,
+    pub compress_seconds: f64,
 }
 
-/// Runs the bake of `plan` on the integrator it was planned with. `bases` are the PCA bases of
-/// the plan's editable glossy families, `shading` the shading bases of its lobed groups
-/// (others are ignored). `progress` advances once per block of vertices.
-pub fn bake_vertex_with(
-    integ: &Integrator,
-    plan: &VertexPlan,
-    bases: &[BrdfBasis],
-    shading: &[ShadingBasis],
-    opts: &VertexBakeOptions,
-    progress: Option<&dyn Progress>,
-) -> Result<VertexBake, VertexError> {
-    bake_vertex_checkpointed(integ, plan, bases, shading, opts, None, progress)
+/// Units in flight for `plan` and `opts`: as many as [`BATCH_BYTES`] holds, 1 ..= `threads`.
+pub fn units_in_flight(plan: &VertexPlan, opts: &VertexBakeOptions, threads: usize) -> usize {
+    let per_unit = plan.unit_bytes(opts).max(1);
+    ((BATCH_BYTES / per_unit) as usize).clamp(1, threads.max(1))
 }
 
-/// [`bake_vertex_with`], saving each traced wave to `checkpoint` and taking the waves it
-/// already holds from it instead of tracing them (the result is the same bytes). The
-/// checkpoint must have been opened with this bake's [`Fingerprint`](super::Fingerprint).
-pub fn bake_vertex_checkpointed(
+/// Makes the pieces of units `todo` (indices into `plan.units`, in order) into `store`:
+/// those already there are skipped, those with kept traced tensors compressed again, the rest
+/// traced, a batch at a time. `keep_traced` also saves each traced unit's dense tensors.
+/// `progress` advances by vertices, in the stage "baking vertices".
+#[allow(clippy::too_many_arguments)]
+pub fn bake_units(
     integ: &Integrator,
     plan: &VertexPlan,
-    bases: &[BrdfBasis],
     shading: &[ShadingBasis],
+    layout: &crate::pixel::SlotLayout,
     opts: &VertexBakeOptions,
-    checkpoint: Option<&Checkpoint>,
+    todo: &[usize],
+    store: &mut PieceStore,
+    keep_traced: bool,
     progress: Option<&dyn Progress>,
-) -> Result<VertexBake, VertexError> {
-    let start = Instant::now();
+) -> Result<UnitsDone, VertexError> {
     opts.validate()?;
-    let scene = integ.scene;
-    let layout = plan.layout(bases)?;
-    let tracer = VertexTracer::new(integ, plan, &layout, shading, opts)?;
+    let tracer = VertexTracer::new(integ, plan, layout, shading, opts)?;
+    let units = &plan.units;
+    let total: u64 = todo.iter().map(|&u| units[u].vertices.len() as u64).sum();
+    let stage = Stage::start(progress, "baking vertices", total);
+    let mut done = UnitsDone::default();
+    let mut fresh: Vec<usize> = Vec::new();
+    let t0_rows = |u: &Unit| tracer.group_shading(u.group).map_or(1, |b| b.ranks.i + 1);
+    for &u in todo {
+        stage.check()?;
+        if store.has(u) {
+            stage.restored(units[u].vertices.len() as u64);
+            done.restored += 1;
+        } else if store.has_traced(u) {
+            let start = Instant::now();
+            let traced = traced_from_piece(&store.traced(u)?)
+                .map_err(|e| VertexError::Inconsistent(e.to_string()))?;
+            let piece = finish_unit(u, &units[u], &traced, plan, opts, t0_rows(&units[u]))?;
+            store.save(u, &piece)?;
+            done.compress_seconds += start.elapsed().as_secs_f64();
+            stage.restored(units[u].vertices.len() as u64);
+            done.recompressed += 1;
+        } else {
+            fresh.push(u);
+        }
+    }
+    let batch = units_in_flight(plan, opts, rayon::current_num_threads());
+    for chunk in fresh.chunks(batch) {
+        stage.check()?;
+        let start = Instant::now();
+        let traced: Vec<TracedUnit> = trace_units(&tracer, units, chunk, &|n| {
+            stage.advance(n);
+            stage.check().is_ok()
+        })?;
+        done.trace_seconds += start.elapsed().as_secs_f64();
+        let start = Instant::now();
+        let pieces = chunk
+            .par_iter()
+            .zip(&traced)
+            .map(|(&u, t)| {
+                let rows = t0_rows(&units[u]);
+                let piece = finish_unit(u, &units[u], t, plan, opts, rows)?;
+                let kept = if keep_traced && opts.compression.is_some() {
+                    Some(traced_piece(u, &units[u], t, plan, opts, rows)?)
+                } else {
+                    None
+                };
+                Ok((piece, kept))
+            })
+            .collect::<Result<Vec<_>, VertexError>>()?;
+        for ((&u, t), (piece, kept)) in chunk.iter().zip(&traced).zip(&pieces) {
+            if let Some(k) = kept {
+                store.save_traced(u, k)?;
+            }
+            store.save(u, piece)?;
+            done.traced_vertices += units[u].vertices.len() as u64;
+            done.traced_rays += t.rays;
+        }
+        done.compress_seconds += start.elapsed().as_secs_f64();
+        done.traced += chunk.len();
+    }
+    Ok(done)
+}
+
+/// The bake's common part: the metadata with every figure known before tracing, the units,
+/// and the tensors that are not per group (mesh, environment; shading and basis tables,
+/// textures), in file order.
+pub fn vertex_common(
+    scene: &Scene,
+    plan: &VertexPlan,
+    layout: &crate::pixel::SlotLayout,
+    shading: &[ShadingBasis],
+    opts: &VertexBakeOptions,
+) -> Result<(VertexCommon, Vec<CommonTensor<'static>>), VertexError> {
     let used_shading: Vec<&ShadingBasis> = plan
         .shading_families()
         .iter()
         .filter_map(|f| shading.iter().find(|b| b.family == *f))
         .collect();
-
-    let stage = Stage::start(progress, "baking vertices", plan.grouped_vertices() as u64);
-    let mut groups = Vec::with_capacity(plan.groups.len());
-    let mut groups_meta = Vec::with_capacity(plan.groups.len());
-    let mut truncation = Vec::with_capacity(plan.groups.len());
-    let mut rays = plan.prepass_rays;
-    let mut trace_rays = 0u64;
-    // Waves taken from the checkpoint: left out of the timings' rates.
-    let (mut restored_vertices, mut restored_rays) = (0usize, 0u64);
-    let mut compress_seconds = 0.0;
-    for (gi, g) in plan.groups.iter().enumerate() {
-        let mut buf = GroupBuffers::default();
-        for (wi, wave) in g.vertices.chunks(WAVE_VERTICES).enumerate() {
-            let blocks: Vec<GroupBuffers> = match checkpoint {
-                Some(c) if c.has(gi, wi) => {
-                    let blocks = c.load(gi, wi, wave)?;
-                    stage.restored(wave.len() as u64);
-                    restored_vertices += wave.len();
-                    restored_rays += blocks.iter().map(|b| b.rays).sum::<u64>();
-                    blocks
-                }
-                _ => {
-                    let blocks: Vec<GroupBuffers> = wave
-                        .par_chunks(BLOCK_VERTICES)
-                        .map(|block| {
-                            let b = trace_block(&tracer, block);
-                            stage.advance(block.len() as u64);
-                            b
-                        })
-                        .collect::<Result<_, _>>()?;
-                    if let Some(c) = checkpoint {
-                        c.save(gi, wi, wave, &blocks)?;
-                    }
-                    blocks
-                }
-            };
-            for b in blocks {
-                buf.append(b);
+    let groups_meta = plan
+        .groups
+        .iter()
+        .map(|g| {
+            let basis = g
+                .lobe
+                .and_then(|f| used_shading.iter().position(|b| b.family == f));
+            VertexGroupMeta {
+                material: g.material,
+                vertices: g.vertices.len() as u32,
+                t0_rows: basis.map_or(1, |b| used_shading[b].ranks.i as u32 + 1),
+                shading: g.lobe.map(|_| basis.unwrap_or(usize::MAX) as u32),
+                active: g.active.clone(),
+                scale_t0: 1.0,
+                scale_t1: 1.0,
+                scale_t2: 1.0,
+                compression: None,
+                t0_terms: None,
             }
-        }
-        trace_rays += buf.rays;
-        // With compression on, T0 keeps the fewest Haar terms meeting its share of the error
-        // target (`t0_choice.rs`); off, every row keeps the `t0_terms` the trace kept.
-        let (t0_terms, t0_note) = match &opts.compression {
-            Some(settings) => {
-                let target = settings.error_target * T0_ERROR_SHARE;
-                let choice = choose_t0_terms(&buf.t0_value, opts.t0_terms, f64::from(target));
-                cut_rows(
-                    &mut buf.t0_index,
-                    &mut buf.t0_value,
-                    opts.t0_terms,
-                    choice.terms,
-                );
-                buf.t0_dropped += choice.cut;
-                let note = format!(
-                    "T0 {} of {} Haar terms per row (error {:.2} % against the {} terms, \
-                     target {:.2} %)",
-                    choice.terms,
-                    opts.t0_terms,
-                    100.0 * choice.error(),
-                    opts.t0_terms,
-                    100.0 * target
-                );
-                (Some(choice.terms as u32), note)
-            }
-            None => (None, String::new()),
-        };
-        truncation.push(if buf.t0_total > 0.0 {
-            (buf.t0_dropped / buf.t0_total).sqrt() as f32
-        } else {
-            0.0
-        });
-        let (t0_value, scale_t0) = store(std::mem::take(&mut buf.t0_value), opts.precision);
-        let (t1, t2, scale_t1, scale_t2, compression, compressed) = match &opts.compression {
-            None => {
-                let (t1, scale_t1) = store(std::mem::take(&mut buf.t1), opts.precision);
-                let (t2, scale_t2) = store(std::mem::take(&mut buf.t2), opts.precision);
-                (t1, t2, scale_t1, scale_t2, None, None)
-            }
-            Some(settings) => {
-                let shape = GroupShape {
-                    active: g.active.len(),
-                    t2_slots: plan.t2_slots.len(),
-                    channels: plan.slots.channels,
-                    reflections: opts.reflections,
-                };
-                let compress_start = Instant::now();
-                let c = compress_group(
-                    scene,
-                    &plan.normals,
-                    &g.vertices,
-                    &buf.t1,
-                    &buf.t2,
-                    shape,
-                    settings,
-                    opts.precision,
-                )?;
-                compress_seconds += compress_start.elapsed().as_secs_f64();
-                // The candidates borrowed the f32 tensors; free them before the next group.
-                buf.t1 = Vec::new();
-                buf.t2 = Vec::new();
-                if let Some(p) = progress {
-                    p.note(&format!(
-                        "compressed {}: {t0_note}; {}",
-                        scene.materials[g.material as usize].name, c.summary
-                    ));
-                }
-                (
-                    Stored::F32(Vec::new()),
-                    Stored::F32(Vec::new()),
-                    c.scale_t1,
-                    c.scale_t2,
-                    Some(c.meta),
-                    Some(c.data),
-                )
-            }
-        };
-        let rows = tracer.group_shading(gi).map_or(1, |b| b.ranks.i + 1);
-        groups_meta.push(VertexGroupMeta {
-            material: g.material,
-            vertices: g.vertices.len() as u32,
-            t0_rows: rows as u32,
-            shading: g.lobe.map(|f| {
-                used_shading
-                    .iter()
-                    .position(|b| b.family == f)
-                    .unwrap_or(usize::MAX) as u32
-            }),
-            active: g.active.clone(),
-            scale_t0,
-            scale_t1,
-            scale_t2,
-            compression,
-            t0_terms,
-        });
-        groups.push(VertexGroupData {
-            vertices: g.vertices.clone(),
-            t0_index: buf.t0_index,
-            t0_value,
-            // Only the specular lobes read the visibility (docs/vertex.md, section 3): a group
-            // without one stores none.
-            visibility: if g.lobe.is_some() {
-                buf.visibility
-            } else {
-                Vec::new()
-            },
-            t1,
-            t2,
-            compressed,
-        });
-    }
-    drop(stage);
-    rays += trace_rays;
-    let trace_seconds = start.elapsed().as_secs_f64() - compress_seconds;
-
-    let (bases_meta, basis_tables) = persisted(&layout);
+        })
+        .collect();
+    let (bases_meta, basis_tables) = persisted(layout);
     let shading_meta = used_shading
         .iter()
         .map(|b| {
@@ -300,42 +236,113 @@ pub fn bake_vertex_checkpointed(
             yfov: cam.yfov,
         },
         stats: VertexBakeStats {
-            rays,
+            rays: plan.prepass_rays,
             allocation: plan.slots.reasons.clone(),
-            t0_truncation_error: truncation,
+            t0_truncation_error: Vec::new(),
         },
         compression: opts.compression,
     };
-    meta.validate().map_err(VertexError::Inconsistent)?;
-    let traced_vertices = (plan.grouped_vertices() - restored_vertices) as f64;
-    let traced_rays = (trace_rays - restored_rays) as f64;
-    Ok(VertexBake {
-        meta,
-        timings: VertexTimings {
-            trace_seconds,
-            compress_seconds,
-            bake_seconds: start.elapsed().as_secs_f64(),
-            vertices_per_second: traced_vertices / trace_seconds.max(1e-9),
-            rays_per_second: traced_rays / trace_seconds.max(1e-9),
-        },
-        groups,
-        shading: used_shading.into_iter().cloned().collect(),
-        basis_tables,
-        mesh: mesh(scene, &plan.normals),
-        environment,
-        textures,
-    })
-}
-
-/// The mesh tensors, flat; `normals` are the ones the vertices were baked with.
-fn mesh(scene: &Scene, normals: &[Vec3]) -> MeshData {
-    MeshData {
-        positions: scene.positions.iter().flat_map(|p| p.to_array()).collect(),
-        normals: normals.iter().flat_map(|n| n.to_array()).collect(),
-        uvs: scene.uvs.iter().flat_map(|u| u.to_array()).collect(),
-        triangles: scene.triangles.iter().flatten().copied().collect(),
-        triangle_material: scene.triangle_material.clone(),
+    let tensor = |name: &str, dtype: Dtype, shape: Vec<usize>, bytes: Vec<u8>| CommonTensor {
+        name: name.to_string(),
+        dtype,
+        shape,
+        bytes: Cow::Owned(bytes),
+    };
+    let f32s = |v: &[f32]| prt_formats::container::element_bytes(v).into_owned();
+    let u32s = |v: &[u32]| prt_formats::container::element_bytes(v).into_owned();
+    let (nv, nt) = (scene.positions.len(), scene.triangles.len());
+    let flat3 = |v: &[Vec3]| -> Vec<f32> { v.iter().flat_map(|p| p.to_array()).collect() };
+    let mut tensors = vec![
+        tensor(
+            names::POSITIONS,
+            Dtype::F32,
+            vec![nv, 3],
+            f32s(&flat3(&scene.positions)),
+        ),
+        tensor(
+            names::NORMALS,
+            Dtype::F32,
+            vec![nv, 3],
+            f32s(&flat3(&plan.normals)),
+        ),
+        tensor(
+            names::UVS,
+            Dtype::F32,
+            vec![nv, 2],
+            f32s(
+                &scene
+                    .uvs
+                    .iter()
+                    .flat_map(|u| u.to_array())
+                    .collect::<Vec<_>>(),
+            ),
+        ),
+        tensor(
+            names::TRIANGLES,
+            Dtype::U32,
+            vec![nt, 3],
+            u32s(
+                &scene
+                    .triangles
+                    .iter()
+                    .flatten()
+                    .copied()
+                    .collect::<Vec<_>>(),
+            ),
+        ),
+        tensor(
+            names::TRIANGLE_MATERIAL,
+            Dtype::U32,
+            vec![nt],
+            u32s(&scene.triangle_material),
+        ),
+    ];
+    if let EnvironmentMeta::LatLong { width, height, .. } = meta.environment {
+        tensors.push(tensor(
+            names::ENVIRONMENT,
+            Dtype::F32,
+            vec![height as usize, width as usize, 3],
+            f32s(&environment),
+        ));
     }
+    let before_groups = tensors.len();
+    for (b, basis) in used_shading.iter().enumerate() {
+        for (table, values) in shading_tables(basis) {
+            tensors.push(tensor(
+                &names::shading_table(b, table),
+                Dtype::F32,
+                vec![values.len()],
+                f32s(values),
+            ));
+        }
+    }
+    for (b, (m, t)) in meta.bases.iter().zip(&basis_tables).enumerate() {
+        let nb = m.basis.num_bases;
+        tensors.push(tensor(
+            &prt_formats::pixel::names::basis_tables(b),
+            Dtype::F32,
+            vec![t.len() / nb.max(1), nb],
+            f32s(t),
+        ));
+    }
+    for (t, (tm, texels)) in meta.textures.iter().zip(&textures).enumerate() {
+        tensors.push(tensor(
+            &names::texture(t),
+            Dtype::F32,
+            vec![tm.height as usize, tm.width as usize, 3],
+            f32s(texels),
+        ));
+    }
+    let common = VertexCommon {
+        meta,
+        units: plan
+            .units
+            .iter()
+            .map(|u| (u.group, u.vertices.len()))
+            .collect(),
+        before_groups,
+    };
+    Ok((common, tensors))
 }
 
 /// The base-colour textures of the materials (each stored once, in order of first use), each
@@ -398,3 +405,7 @@ fn environment(scene: &Scene) -> (EnvironmentMeta, Vec<f32>) {
 fn flat(texels: &[Vec3]) -> Vec<f32> {
     texels.iter().flat_map(|t| t.to_array()).collect()
 }
+
+/// The PCA bases the bake was given, kept for the API's symmetry with the per-pixel mode.
+#[allow(dead_code)]
+fn unused(_: &[BrdfBasis]) {}

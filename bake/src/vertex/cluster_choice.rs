@@ -1,94 +1,89 @@
-//! The number of clusters of a compressed group, chosen from the error target
-//! (docs/vertex.md "Compression"): when `[vertex] cluster_vertices` is not given, each group is
-//! compressed at the default cluster size and then at one neighbour, and the smallest stored
-//! result that meets the target is kept. Small clusters fit their vertices with low ranks but
-//! repeat the light and element factors often; large ones share the factors but need higher
-//! ranks (or miss the target at the rank caps); which wins depends on the group, so it is
-//! measured, not guessed.
+//! How many clusters a unit is compressed as, chosen from the error target (docs/vertex.md
+//! "Compression"): a unit (a super-cluster of up to 256 vertices, `units.rs`) is compressed
+//! as its two halves first; when they meet the target, once more as one cluster (it shares
+//! its light and element factors, so it is smaller if it meets the target too); when they do
+//! not, as its four quarters (smaller clusters fit their vertices at lower ranks, at more
+//! bytes). The smallest stored result that meets the target is kept; when none does, the
+//! halves: what is left then is the error the rank caps leave, and quarters buy little of it
+//! back at a quarter more bytes or more. Small clusters fit their vertices at low ranks but
+//! repeat the factors; large ones share them but need higher ranks; which wins depends on the
+//! unit, so it is measured, not guessed, and per unit: a floor far from everything and the
+//! part of it under an object want different sizes.
 //!
-//! The search: the default size first; when it meets the target, the next larger size (fewer
-//! clusters, so fewer bytes if it meets the target too); when it does not, the next smaller
-//! one (which may meet it, at more bytes). When no size tried meets the target, the default
-//! size is kept: what is left then is the error the rank caps leave, on the scenes measured
-//! mostly the dense tensors' Monte Carlo noise, and smaller clusters buy little of it back at
-//! a quarter more bytes or more (`vitrine`: image 1.04 % from the dense relight at 128
-//! vertices per cluster, 1.00 % at 64, for 13.6 against 17.0 MB).
+//! With `[vertex] cluster_vertices` given, every unit is compressed once, as the split whose
+//! clusters' size is nearest to it (units are made as large as it when it exceeds the default
+//! unit size: [`unit_vertices`]).
 
-/// Vertices per cluster tried when `cluster_vertices` is not given, smallest first.
-pub const AUTO_CLUSTER_VERTICES: [u32; 3] = [64, 128, 256];
+use super::units::UNIT_VERTICES;
 
-/// Relative slack on the error target when deciding whether a candidate meets it: the group's
-/// error is a ratio of f64 sums rounded to f32, so a candidate whose every cluster met the
-/// target exactly can read a few ulps above it.
+/// Relative slack on the error target when deciding whether a candidate meets it: the error is
+/// a ratio of f64 sums, so a candidate whose every cluster met the target exactly can read a
+/// few ulps above it.
 const TARGET_SLACK: f64 = 1e-4;
 
-/// One cluster size tried for a group: what it stores and the errors it makes.
-#[derive(Clone, Debug, PartialEq)]
-pub(crate) struct ClusterCandidate {
-    /// Vertices per cluster aimed at.
-    pub cluster_vertices: u32,
-    /// Clusters made.
-    pub clusters: usize,
-    /// Bytes stored for the compressed tensors (cluster indices, ranks, factors, cores,
-    /// vertex rows).
+/// The default split of a unit when clusters are chosen: its halves.
+pub const DEFAULT_PARTS: usize = 2;
+
+/// One split of a unit tried: what it stores and the errors it makes.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub(crate) struct PartsCandidate {
+    /// Clusters the unit was split into (1, 2 or 4).
+    pub parts: usize,
+    /// Bytes stored for the compressed tensors (ranks, factors, cores, vertex rows).
     pub bytes: u64,
-    /// Relative L2 error of T1, and of T2 when the bake has it.
-    pub errors: Vec<f32>,
+    /// Relative L2 error beyond the noise of T1, and of T2 when the bake has it.
+    pub errors: Vec<f64>,
 }
 
-impl ClusterCandidate {
+impl PartsCandidate {
     /// Whether every tensor meets `target`.
     pub fn meets(&self, target: f32) -> bool {
         self.errors
             .iter()
-            .all(|&e| f64::from(e) <= f64::from(target) * (1.0 + TARGET_SLACK))
+            .all(|&e| e <= f64::from(target) * (1.0 + TARGET_SLACK))
     }
 }
 
-/// The cluster sizes to try for a group of `vertices` vertices: the explicit `cluster_vertices`
-/// alone, or [`AUTO_CLUSTER_VERTICES`] less those that would make the same number of clusters
-/// as a smaller size (a group of 100 vertices tries 64 and 128: 256 also makes one cluster).
-pub(crate) fn candidate_sizes(explicit: Option<u32>, vertices: usize) -> Vec<u32> {
-    if let Some(n) = explicit {
-        return vec![n];
-    }
-    let mut out: Vec<u32> = Vec::new();
-    let mut last_count = None;
-    for n in AUTO_CLUSTER_VERTICES {
-        let count = vertices.div_ceil(n as usize);
-        if last_count != Some(count) {
-            out.push(n);
-            last_count = Some(count);
-        }
-    }
-    out
+/// The largest unit for the compression settings: [`UNIT_VERTICES`], or an explicit cluster
+/// size above it.
+pub fn unit_vertices(explicit: Option<u32>) -> usize {
+    explicit.map_or(UNIT_VERTICES, |c| (c as usize).max(UNIT_VERTICES))
 }
 
-/// The default cluster size of the search (the first tried).
-pub const DEFAULT_AUTO_CLUSTER_VERTICES: u32 = 128;
+/// The split of a unit of `vertices` whose cluster size is nearest to an explicit
+/// `cluster_vertices` (fewer clusters on a tie), at most one cluster per vertex.
+fn explicit_parts(cluster_vertices: u32, vertices: usize) -> usize {
+    let c = cluster_vertices as f64;
+    [1usize, 2, 4]
+        .into_iter()
+        .filter(|&p| p <= vertices.max(1))
+        .min_by(|&a, &b| {
+            let da = (vertices as f64 / a as f64 - c).abs();
+            let db = (vertices as f64 / b as f64 - c).abs();
+            da.total_cmp(&db).then(a.cmp(&b))
+        })
+        .unwrap_or(1)
+}
 
-/// The next cluster size to try after `tried` (in the order tried), or None when the search
-/// is over (see the module documentation): the explicit size once; else the default size (or
-/// the nearest size [`candidate_sizes`] keeps), then its larger neighbour when it met `target`
-/// or its smaller one when it did not.
-pub(crate) fn next_size(
+/// The next split to try after `tried` (in the order tried), or None when the search is over
+/// (see the module documentation). `vertices`: the unit's.
+pub(crate) fn next_parts(
     explicit: Option<u32>,
     vertices: usize,
-    tried: &[ClusterCandidate],
+    tried: &[PartsCandidate],
     target: f32,
-) -> Option<u32> {
-    let sizes = candidate_sizes(explicit, vertices);
-    let largest = *sizes.last()?;
-    let start = sizes
-        .iter()
-        .position(|&n| n >= DEFAULT_AUTO_CLUSTER_VERTICES.min(largest))?;
+) -> Option<usize> {
+    if let Some(c) = explicit {
+        return tried.is_empty().then(|| explicit_parts(c, vertices));
+    }
     match tried {
-        [] => Some(sizes[start]),
-        [first] if explicit.is_none() => {
+        // A unit of one vertex has one cluster whatever the split.
+        [] => Some(if vertices >= 2 { DEFAULT_PARTS } else { 1 }),
+        [first] if first.parts == DEFAULT_PARTS => {
             if first.meets(target) {
-                sizes.get(start + 1).copied()
+                Some(1)
             } else {
-                start.checked_sub(1).map(|i| sizes[i])
+                (vertices >= 4).then_some(4)
             }
         }
         _ => None,
@@ -96,9 +91,9 @@ pub(crate) fn next_size(
 }
 
 /// Which candidate to keep: the smallest stored size among those meeting `target` (the first
-/// tried on a tie), or, when none does, the first tried (the default size). None for no
+/// tried on a tie), or, when none does, the first tried (the default split). None for no
 /// candidates.
-pub(crate) fn pick(candidates: &[ClusterCandidate], target: f32) -> Option<usize> {
+pub(crate) fn pick(candidates: &[PartsCandidate], target: f32) -> Option<usize> {
     let meeting = candidates
         .iter()
         .enumerate()
@@ -108,99 +103,66 @@ pub(crate) fn pick(candidates: &[ClusterCandidate], target: f32) -> Option<usize
     meeting.or((!candidates.is_empty()).then_some(0))
 }
 
-/// A line saying what was tried and why `chosen` was kept, for the progress note.
-pub(crate) fn describe(candidates: &[ClusterCandidate], chosen: usize, target: f32) -> String {
-    if candidates.len() < 2 {
-        return String::new();
-    }
-    let tried: Vec<String> = candidates
-        .iter()
-        .map(|c| {
-            let errors: Vec<String> = c
-                .errors
-                .iter()
-                .map(|e| format!("{:.2}", 100.0 * e))
-                .collect();
-            format!(
-                "{} -> {:.2} MB at {} %",
-                c.cluster_vertices,
-                c.bytes as f64 / 1e6,
-                errors.join("/")
-            )
-        })
-        .collect();
-    let why = if candidates[chosen].meets(target) {
-        "the smallest meeting the target"
-    } else {
-        "none meets the target (the rank caps bind): the default size"
-    };
-    format!(
-        "clusters of {} vertices chosen, {why} (tried {})",
-        candidates[chosen].cluster_vertices,
-        tried.join(", ")
-    )
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    fn candidate(cluster_vertices: u32, bytes: u64, errors: &[f32]) -> ClusterCandidate {
-        ClusterCandidate {
-            cluster_vertices,
-            clusters: 1,
+    fn candidate(parts: usize, bytes: u64, errors: &[f64]) -> PartsCandidate {
+        PartsCandidate {
+            parts,
             bytes,
             errors: errors.to_vec(),
         }
     }
 
     #[test]
-    fn sizes_are_the_explicit_one_or_the_distinct_auto_ones() {
-        assert_eq!(candidate_sizes(Some(24), 5000), [24]);
-        assert_eq!(candidate_sizes(None, 5000), [64, 128, 256]);
-        assert_eq!(candidate_sizes(None, 100), [64, 128]);
-        assert_eq!(candidate_sizes(None, 64), [64]);
-        assert_eq!(candidate_sizes(None, 0), [64]);
-    }
-
-    #[test]
-    fn the_search_starts_at_the_default_and_goes_towards_meeting_the_target() {
+    fn the_search_starts_with_halves_and_goes_towards_meeting_the_target() {
         let target = 0.1;
-        assert_eq!(next_size(None, 5000, &[], target), Some(128));
-        // Met at 128: try larger clusters; missed: try smaller ones; then stop.
-        let met = candidate(128, 10, &[0.05]);
-        let missed = candidate(128, 10, &[0.3]);
+        assert_eq!(next_parts(None, 200, &[], target), Some(2));
+        let met = candidate(2, 10, &[0.05]);
+        let missed = candidate(2, 10, &[0.3]);
         assert_eq!(
-            next_size(None, 5000, std::slice::from_ref(&met), target),
-            Some(256)
+            next_parts(None, 200, std::slice::from_ref(&met), target),
+            Some(1)
         );
         assert_eq!(
-            next_size(None, 5000, std::slice::from_ref(&missed), target),
-            Some(64)
+            next_parts(None, 200, std::slice::from_ref(&missed), target),
+            Some(4)
         );
-        assert_eq!(next_size(None, 5000, &[missed, met], target), None);
-        // A small group: the sizes that make distinct cluster counts only.
-        assert_eq!(next_size(None, 100, &[], target), Some(128));
-        assert_eq!(next_size(None, 64, &[], target), Some(64));
-        let small = candidate(64, 10, &[0.3]);
-        assert_eq!(next_size(None, 64, &[small], target), None);
-        // Explicit: that size once.
-        assert_eq!(next_size(Some(24), 5000, &[], target), Some(24));
-        let once = candidate(24, 10, &[0.3]);
-        assert_eq!(next_size(Some(24), 5000, &[once], target), None);
+        assert_eq!(next_parts(None, 200, &[missed.clone(), met], target), None);
+        // Tiny units.
+        assert_eq!(next_parts(None, 1, &[], target), Some(1));
+        assert_eq!(
+            next_parts(None, 1, &[candidate(1, 1, &[0.3])], target),
+            None
+        );
+        assert_eq!(
+            next_parts(None, 3, std::slice::from_ref(&missed), target),
+            None
+        );
+        // Explicit sizes: the nearest split, once.
+        assert_eq!(next_parts(Some(64), 256, &[], target), Some(4));
+        assert_eq!(next_parts(Some(100), 256, &[], target), Some(2));
+        assert_eq!(next_parts(Some(256), 256, &[], target), Some(1));
+        assert_eq!(next_parts(Some(512), 512, &[], target), Some(1));
+        assert_eq!(next_parts(Some(80), 160, &[], target), Some(2));
+        assert_eq!(next_parts(Some(64), 3, &[], target), Some(1));
+        assert_eq!(next_parts(Some(1), 3, &[], target), Some(2));
+        assert_eq!(next_parts(Some(64), 256, &[missed], target), None);
+        assert_eq!(unit_vertices(Some(512)), 512);
+        assert_eq!(unit_vertices(Some(64)), UNIT_VERTICES);
+        assert_eq!(unit_vertices(None), UNIT_VERTICES);
     }
 
     #[test]
     fn the_smallest_meeting_the_target_is_kept_else_the_default() {
         let target = 0.1;
-        // The smallest size misses the target (T2 does): the next smallest that meets it wins.
         let c = [
-            candidate(64, 100, &[0.09, 0.11]),
-            candidate(128, 300, &[0.1, 0.08]),
-            candidate(256, 200, &[0.095, 0.1]),
+            candidate(2, 100, &[0.09, 0.11]),
+            candidate(4, 300, &[0.1, 0.08]),
+            candidate(1, 200, &[0.095, 0.1]),
         ];
         assert_eq!(pick(&c, target), Some(2));
-        // Never a meeting candidate larger than another meeting one, whatever the order.
         for rotation in 0..3 {
             let mut r = c.to_vec();
             r.rotate_left(rotation);
@@ -210,16 +172,13 @@ mod tests {
                 .iter()
                 .all(|o| !o.meets(target) || o.bytes >= chosen.bytes));
         }
-        // None meets it: the first tried (the search's default size), whatever the others.
         let c = [
-            candidate(128, 900, &[0.25, 0.12]),
-            candidate(64, 100, &[0.2, 0.3]),
+            candidate(2, 900, &[0.25, 0.12]),
+            candidate(4, 100, &[0.2, 0.3]),
         ];
         assert_eq!(pick(&c, target), Some(0));
         assert_eq!(pick(&[], target), None);
-        // A hair above the target from rounding still meets it; a real miss does not.
-        assert!(candidate(64, 1, &[0.1 * (1.0 + 1e-6)]).meets(0.1));
-        assert!(!candidate(64, 1, &[0.1 * 1.01]).meets(0.1));
-        assert!(describe(&c, 1, target).contains("none meets the target"));
+        assert!(candidate(2, 1, &[0.1 * (1.0 + 1e-6)]).meets(0.1));
+        assert!(!candidate(2, 1, &[0.1 * 1.01]).meets(0.1));
     }
 }

@@ -78,7 +78,7 @@ pub enum VertexError {
         /// What it must be.
         reason: &'static str,
     },
-    /// Compressing T1 or T2 failed (an eigendecomposition did not converge).
+    /// Compressing T1 or T2 failed (a non-finite value reached an eigendecomposition).
     #[error("compressing the transfer tensors: {0}")]
     Compression(String),
     /// The slot allocation failed (a missing or mis-sized PCA basis, too many slots).
@@ -89,7 +89,13 @@ pub enum VertexError {
     Inconsistent(String),
     /// The checkpoint could not be made, resumed or read.
     #[error(transparent)]
-    Checkpoint(#[from] CheckpointError),
+    Checkpoint(#[from] crate::shard::CheckpointError),
+    /// The caller cancelled the bake ([`crate::progress::Progress::cancelled`]).
+    #[error(transparent)]
+    Cancelled(#[from] crate::progress::Cancelled),
+    /// A unit's piece could not be read (a damaged checkpoint or shard file).
+    #[error(transparent)]
+    Piece(#[from] crate::shard::ShardError),
     /// The bake file could not be written.
     #[error("writing {path}: {source}")]
     Write {
@@ -97,51 +103,5 @@ pub enum VertexError {
         path: std::path::PathBuf,
         /// What went wrong (boxed: the container's error is large, and this is the cold path).
         source: Box<prt_formats::FormatError>,
-    },
-}
-
-/// Why a checkpoint (`checkpoint.rs`) could not be made, resumed or read. Each message names
-/// the folder or file and says what to do.
-#[derive(Debug, thiserror::Error)]
-pub enum CheckpointError {
-    /// A bake without resume found the checkpoint of an earlier, interrupted one.
-    #[error(
-        "{} holds the checkpoint of an interrupted bake of this output: rerun with --resume to \
-         continue it, or delete the folder to bake from the start",
-        .0.display()
-    )]
-    Exists(std::path::PathBuf),
-    /// The checkpoint was made by a bake with other inputs.
-    #[error(
-        "cannot resume from {}: this bake's inputs differ from the interrupted one's: {}; \
-         resume with the same inputs, or delete the folder to bake from the start",
-        dir.display(),
-        changes.join(", ")
-    )]
-    Mismatch {
-        /// The checkpoint folder.
-        dir: std::path::PathBuf,
-        /// What changed, one phrase per input ([`super::Fingerprint::differences`]).
-        changes: Vec<String>,
-    },
-    /// A file of the checkpoint is not what this program writes.
-    #[error(
-        "{} is not a checkpoint piece this program can read ({message}): delete its folder to \
-         bake from the start",
-        path.display()
-    )]
-    Unreadable {
-        /// The file.
-        path: std::path::PathBuf,
-        /// What is wrong with it.
-        message: String,
-    },
-    /// Reading or writing the checkpoint failed.
-    #[error("checkpoint {}: {source}", path.display())]
-    Io {
-        /// The file or folder.
-        path: std::path::PathBuf,
-        /// The system's error.
-        source: std::io::Error,
     },
 }

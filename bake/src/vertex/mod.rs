@@ -5,6 +5,10 @@
 //! (T2). `prt_formats::vertex` documents the file's meaning and layout; this module computes
 //! exactly that.
 //!
+//! - [`prepare_scene`] (`prepare.rs`): the vertices welded where they share position, normal,
+//!   UV and group, and ordered by group and unit; [`plan_units`] (`units.rs`) the units:
+//!   super-clusters of up to 256 vertices by bisection, the unit of tracing, compression,
+//!   checkpoints and shards;
 //! - [`VertexPlan`] (`plan.rs`): the groups (one per material with vertices), the refusals
 //!   (lights other than the environment, unsupported reflections), the pre-pass that finds
 //!   each group's active slots, the allocation report; `memory.rs` its memory estimate;
@@ -13,23 +17,22 @@
 //!   [`BakeModel`](crate::pixel::BakeModel) (slot evaluation and a coefficient-independent
 //!   sampling mixture, so one trace serves every material setting); `direct.rs` its T0 rows,
 //!   visibility and Haar truncation;
-//! - [`bake_vertex_with`] (`bake.rs`): every group in fixed blocks of vertices (rayon), storage
-//!   precision and per-group scales, the metadata;
-//! - [`write_vertex_file`] (`write.rs`): the file, written atomically;
-//! - [`Checkpoint`] (`checkpoint.rs`): the traced waves saved beside the output as the bake
-//!   goes, so that a killed bake resumes; [`Fingerprint`] (`fingerprint.rs`) what they belong
-//!   to.
+//! - [`bake_units`] (`bake.rs`, `unit.rs`): batches of units traced over all threads, each
+//!   compressed (`compress.rs`, `cluster_choice.rs`) into a piece saved to the checkpoint
+//!   folder ([`crate::shard::PieceStore`]); [`vertex_common`] what is known before tracing;
+//! - [`assemble_vertex_file`] (`assemble.rs`): the file written from the pieces, streamed,
+//!   whether they come from this run's folder or from shard files ([`crate::shard`]);
+//! - [`vertex_fingerprints`] (`fingerprint.rs`): what the pieces depend on.
 //!
 //! `spp` means N1 in this mode: the directions traced from each vertex for T1 and T2.
-//! The result does not depend on the thread count: every vertex's sums run sequentially from
-//! its own random streams (`Rng::for_sample(seed, vertex, sample)`), results are placed by
-//! vertex index, and group-wide figures are reduced in vertex order.
+//! The result does not depend on the thread count, the batch or the shards: every vertex's
+//! sums run sequentially from its own random streams (`Rng::for_sample(seed, vertex, sample)`),
+//! every unit's piece depends on its vertices alone, and group-wide figures are reduced in unit
+//! order.
 
+mod assemble;
 mod bake;
 mod bins;
-mod buffers;
-mod checkpoint;
-mod cluster;
 mod cluster_choice;
 mod compress;
 mod direct;
@@ -38,12 +41,18 @@ mod fingerprint;
 mod frame;
 mod memory;
 mod plan;
+mod prepare;
 mod t0_choice;
 mod trace;
+mod unit;
+mod units;
 mod write;
 
 #[cfg(test)]
 mod tests;
+
+use std::path::Path;
+use std::time::Instant;
 
 use prt_formats::basis::{BrdfBasis, ShadingBasis};
 use prt_formats::clustered::CompressionSettings;
@@ -56,21 +65,26 @@ use crate::lights::LightSet;
 use crate::pixel::SlotPlan;
 use crate::progress::Progress;
 use crate::scene::Scene;
+use crate::shard::{checkpoint_folder, PieceStore};
 
-pub use bake::{bake_vertex_checkpointed, bake_vertex_with, VertexTimings, WAVE_VERTICES};
-pub use checkpoint::{checkpoint_folder, Checkpoint};
+pub use assemble::{assemble_vertex_file, Assembled, VertexCommon};
+pub use bake::{bake_units, units_in_flight, vertex_common, UnitsDone, VertexTimings, BATCH_BYTES};
+pub use cluster_choice::{unit_vertices, DEFAULT_PARTS};
 pub use direct::T0_TEXELS;
-pub use error::{CheckpointError, VertexError};
-pub use fingerprint::Fingerprint;
+pub use error::VertexError;
+pub use fingerprint::vertex_fingerprints;
 pub use memory::VertexMemoryEstimate;
 pub use plan::{check_scene, vertex_materials, PlannedGroup, VertexPlan};
+pub use prepare::{prepare_scene, prepare_scene_unwelded, PreparedScene};
+pub use trace::{half_noise, VertexResult, VertexTracer};
 #[doc(hidden)]
 pub use trace::{EscapingPath, SecondBounce};
-pub use trace::{VertexResult, VertexTracer};
-pub use write::{vertex_file_bytes, write_vertex_file, Stored, StoredTucker};
+pub use units::{plan_units, Unit, UNIT_VERTICES};
 
+/// Default N2 (`[vertex] secondary`).
+pub const DEFAULT_SECONDARY: u32 = 4;
 /// Largest N2 (`[vertex] secondary`).
-pub const MAX_SECONDARY: u32 = crate::config::MAX_SECONDARY;
+pub const MAX_SECONDARY: u32 = 64;
 
 /// Settings of a per-vertex bake.
 #[derive(Clone, Debug, PartialEq)]
@@ -99,8 +113,8 @@ impl Default for VertexBakeOptions {
     /// 64 samples, 4 secondary directions, 2 reflections, seed 0, 96 terms, f16, light bins.
     fn default() -> Self {
         VertexBakeOptions {
-            samples: crate::config::DEFAULT_SPP,
-            secondary: crate::config::DEFAULT_SECONDARY,
+            samples: crate::sampling::DEFAULT_SPP,
+            secondary: DEFAULT_SECONDARY,
             reflections: 2,
             seed: 0,
             t0_terms: DEFAULT_T0_TERMS,
@@ -124,7 +138,12 @@ impl VertexBakeOptions {
                 Ok(())
             }
         };
-        range("spp", self.samples as u64, 1, crate::config::MAX_SPP as u64)?;
+        range(
+            "spp",
+            self.samples as u64,
+            1,
+            crate::sampling::MAX_SPP as u64,
+        )?;
         range(
             "vertex.secondary",
             self.secondary as u64,
@@ -144,11 +163,9 @@ impl VertexBakeOptions {
     }
 }
 
-/// Default relative L2 error per cluster of compressed T1 and T2 (`[vertex] compress_error`).
+/// Default relative L2 error of compressed T1 and T2 beyond their Monte Carlo noise
+/// (`[vertex] compress_error`).
 pub const DEFAULT_COMPRESS_ERROR: f32 = 0.1;
-/// Vertices per cluster tried when `[vertex] cluster_vertices` is not given (the default):
-/// each group keeps the one that meets the error target at the smallest size.
-pub use cluster_choice::AUTO_CLUSTER_VERTICES;
 /// Default largest light rank (`[vertex] light_rank`): the thesis' light dimension.
 pub const DEFAULT_LIGHT_RANK: u32 = 64;
 /// Default largest element rank (`[vertex] element_rank`).
@@ -193,89 +210,105 @@ fn validate_compression(c: &CompressionSettings) -> Result<(), VertexError> {
     Ok(())
 }
 
-/// One group's tensors as they will be stored.
-pub struct VertexGroupData {
-    /// Global vertex indices, ascending.
-    pub vertices: Vec<u32>,
-    /// `[vertices, t0_rows, K]` Haar indices (K: the group's `t0_terms` when compressed, or
-    /// the bake's).
-    pub t0_index: Vec<u16>,
-    /// `[vertices, t0_rows, K]` Haar values (divided by the group's `scale_t0`).
-    pub t0_value: Stored,
-    /// `[vertices, 6 * 16 * 16]` visible fractions, 255 = all, for a group with a specular
-    /// lobe; empty (`[vertices, 0]`) for one without.
-    pub visibility: Vec<u8>,
-    /// `[vertices, 384, J, 16, channels]` (divided by `scale_t1`).
-    pub t1: Stored,
-    /// `[vertices, 24, J, I, channels]` (divided by `scale_t2`); empty when reflections = 2.
-    pub t2: Stored,
-    /// T1 and T2 compressed (then `t1` and `t2` are empty).
-    pub compressed: Option<CompressedGroupData>,
-}
-
-/// A group's T1 and T2 stored compressed (`prt_formats::clustered`).
-pub struct CompressedGroupData {
-    /// The cluster of each vertex of the group.
-    pub clusters: Vec<u32>,
-    /// T1 (its core divided by `scale_t1`).
-    pub t1: StoredTucker,
-    /// T2 (its core divided by `scale_t2`), when the bake has T2.
-    pub t2: Option<StoredTucker>,
-}
-
-/// The result of a per-vertex bake, ready to be written ([`write_vertex_file`]).
-pub struct VertexBake {
-    /// Everything the file's metadata holds (inputs and deterministic figures only).
+/// What a per-vertex bake wrote.
+#[derive(Clone, Debug)]
+pub struct VertexBakeResult {
+    /// The file's metadata as written.
     pub meta: VertexBakeMeta,
+    /// Its size in bytes.
+    pub file_bytes: u64,
     /// How long the bake took: reported by the tools, never written to the file.
     pub timings: VertexTimings,
-    /// One per `meta.groups`.
-    pub groups: Vec<VertexGroupData>,
-    /// The shading bases with their tables (`meta.shading` holds them emptied).
-    pub shading: Vec<ShadingBasis>,
-    /// Tables of `meta.bases` (as stored in `basis.<i>.tables`).
-    pub basis_tables: Vec<Vec<f32>>,
-    /// The mesh, flat: positions and normals `[V, 3]`, uvs `[V, 2]`, triangles `[T, 3]`,
-    /// triangle materials `[T]`.
-    pub mesh: MeshData,
-    /// The lat-long environment `[h, w, 3]` (empty for a constant one).
-    pub environment: Vec<f32>,
-    /// Per `meta.textures`, its texels `[h, w, 3]`.
-    pub textures: Vec<Vec<f32>>,
+    /// One line per compressed group: what was chosen and the errors.
+    pub notes: Vec<String>,
+    /// Groups that missed the error target, with what would meet it.
+    pub warnings: Vec<String>,
 }
 
-/// The mesh tensors of a per-vertex bake, flat.
-pub struct MeshData {
-    /// `[V, 3]` world positions.
-    pub positions: Vec<f32>,
-    /// `[V, 3]` the unit normals the vertices were baked with.
-    pub normals: Vec<f32>,
-    /// `[V, 2]`.
-    pub uvs: Vec<f32>,
-    /// `[T, 3]`.
-    pub triangles: Vec<u32>,
-    /// `[T]`.
-    pub triangle_material: Vec<u32>,
-}
-
-/// Bakes `scene` per vertex: builds the ray-query structure, plans the groups (the pre-pass),
-/// and runs [`bake_vertex_with`]. `bases` are the PCA bases of the editable glossy families,
-/// `shading` the shading bases of every family with a lobe that a group's material uses
-/// (`prt_bake::basis::shading::default_shading_basis`; extra ones are ignored).
+/// Bakes `scene` per vertex into the file `output`: prepares the scene (welds and orders its
+/// vertices, [`prepare_scene`]), builds the ray-query structure, plans the groups (the
+/// pre-pass) and runs [`bake_vertex_with`]. `bases` are the PCA bases of the editable glossy
+/// families, `shading` the shading bases of every family with a lobe that a group's material
+/// uses (`prt_bake::basis::shading::default_shading_basis`; extra ones are ignored).
 pub fn bake_vertex(
     scene: &Scene,
     bases: &[BrdfBasis],
     shading: &[ShadingBasis],
     opts: &VertexBakeOptions,
+    output: &Path,
     progress: Option<&dyn Progress>,
-) -> Result<VertexBake, VertexError> {
+) -> Result<VertexBakeResult, VertexError> {
     opts.validate()?;
     check_scene(scene)?;
+    let prepared = prepare_scene_for(scene, opts);
+    let scene = &prepared.scene;
     let counts: Vec<_> = bases.iter().map(|b| (b.family, b.num_bases)).collect();
     let slots = SlotPlan::per_unit_radiance(scene, &counts)?;
     let accel = Accel::build(scene);
     let lights = LightSet::new(scene);
     let integ = Integrator::new(scene, &accel, &lights, opts.reflections as usize, 1, 1);
-    let plan = VertexPlan::new(&integ, slots, opts, progress)?;
-    bake_vertex_with(&integ, &plan, bases, shading, opts, progress)
+    let plan = VertexPlan::new(&integ, slots, opts, prepared.units, progress)?;
+    bake_vertex_with(&integ, &plan, bases, shading, opts, output, progress)
+}
+
+/// [`prepare_scene`] with the units as large as `opts` needs ([`unit_vertices`]).
+pub fn prepare_scene_for(scene: &Scene, opts: &VertexBakeOptions) -> PreparedScene {
+    prepare::prepare_scene_with(
+        scene,
+        unit_vertices(opts.compression.and_then(|c| c.cluster_vertices)),
+    )
+}
+
+/// Runs the bake of `plan` on the integrator it was planned with (its scene prepared by
+/// [`prepare_scene`]) into the file `output`, through a scratch piece store beside it
+/// (`<output>.partial/`, removed once the file is written; `bake` keeps it as a checkpoint
+/// instead: `crate::run::run_vertex`).
+pub fn bake_vertex_with(
+    integ: &Integrator,
+    plan: &VertexPlan,
+    bases: &[BrdfBasis],
+    shading: &[ShadingBasis],
+    opts: &VertexBakeOptions,
+    output: &Path,
+    progress: Option<&dyn Progress>,
+) -> Result<VertexBakeResult, VertexError> {
+    let start = Instant::now();
+    let layout = plan.layout(bases)?;
+    let fingerprints = vertex_fingerprints(integ.scene, plan, opts);
+    let dir = checkpoint_folder(output);
+    let mut store = PieceStore::create(&dir, &fingerprints, false)?;
+    let all: Vec<usize> = (0..plan.units.len()).collect();
+    let result = (|| {
+        let done = bake_units(
+            integ, plan, shading, &layout, opts, &all, &mut store, false, progress,
+        )?;
+        let (common, tensors) = vertex_common(integ.scene, plan, &layout, shading, opts)?;
+        let write_start = Instant::now();
+        let a = assemble_vertex_file(&common, &tensors, &store, output)?;
+        Ok::<_, VertexError>((done, a, write_start.elapsed().as_secs_f64()))
+    })();
+    let removed = store.remove();
+    let (done, a, write_seconds) = result?;
+    removed?;
+    Ok(VertexBakeResult {
+        meta: a
+            .meta
+            .ok_or_else(|| VertexError::Inconsistent("no metadata written".into()))?,
+        file_bytes: a.file_bytes,
+        timings: timings(&done, write_seconds, start),
+        notes: a.notes,
+        warnings: a.warnings,
+    })
+}
+
+/// The timings of a bake from what its units did.
+pub fn timings(done: &UnitsDone, write_seconds: f64, start: Instant) -> VertexTimings {
+    VertexTimings {
+        trace_seconds: done.trace_seconds,
+        compress_seconds: done.compress_seconds,
+        write_seconds,
+        bake_seconds: start.elapsed().as_secs_f64(),
+        vertices_per_second: done.traced_vertices as f64 / done.trace_seconds.max(1e-9),
+        rays_per_second: done.traced_rays as f64 / done.trace_seconds.max(1e-9),
+    }
 }

@@ -20,6 +20,7 @@ use crate::units::human_bytes;
 
 use super::error::VertexError;
 use super::frame::{FirstDirections, VertexFrame};
+use super::units::Unit;
 use super::write::value_bytes;
 use super::VertexBakeOptions;
 
@@ -88,7 +89,7 @@ pub fn vertex_materials(scene: &Scene) -> Vec<Option<u32>> {
 }
 
 /// Per vertex, the lowest-indexed triangle using it.
-fn first_triangles(scene: &Scene) -> Vec<Option<u32>> {
+pub(crate) fn first_triangles(scene: &Scene) -> Vec<Option<u32>> {
     let mut first = vec![None; scene.positions.len()];
     for (t, tri) in scene.triangles.iter().enumerate() {
         for &v in tri {
@@ -101,7 +102,7 @@ fn first_triangles(scene: &Scene) -> Vec<Option<u32>> {
 /// The unit normal each vertex is baked with: the scene's vertex normal, normalized; where it
 /// is unusable, the facet normal of the vertex's first triangle; +Y for a vertex no triangle
 /// uses.
-fn vertex_normals(scene: &Scene, first: &[Option<u32>]) -> Vec<Vec3> {
+pub(crate) fn vertex_normals(scene: &Scene, first: &[Option<u32>]) -> Vec<Vec3> {
     scene
         .normals
         .iter()
@@ -158,19 +159,24 @@ pub struct VertexPlan {
     pub t2_slots: Vec<u32>,
     /// The unit normal of every vertex, as baked (and stored in `mesh.normals`).
     pub normals: Vec<Vec3>,
+    /// The units (super-clusters), in order: each group's vertices, unit after unit.
+    pub units: Vec<Unit>,
     /// Rays the pre-pass traced.
     pub prepass_rays: u64,
 }
 
 impl VertexPlan {
-    /// Checks the options and the scene's lights, groups the vertices, and runs the pre-pass:
-    /// from every grouped vertex the first rays of the bake (the same random draws), keeping
-    /// per group the slots of the materials they reach from the front (objects that cannot
-    /// see each other get no block). `progress` advances once per block of vertices.
+    /// Checks the options and the scene's lights, groups the vertices, checks that `units`
+    /// cover the groups in order (the scene must be prepared: [`super::prepare_scene`]), and
+    /// runs the pre-pass: from every grouped vertex the first rays of the bake (the same
+    /// random draws), keeping per group the slots of the materials they reach from the front
+    /// (objects that cannot see each other get no block). `progress` advances once per block
+    /// of vertices.
     pub fn new(
         integ: &Integrator,
         slots: SlotPlan,
         opts: &VertexBakeOptions,
+        units: Vec<Unit>,
         progress: Option<&dyn Progress>,
     ) -> Result<VertexPlan, VertexError> {
         opts.validate()?;
@@ -185,6 +191,7 @@ impl VertexPlan {
                 members[scene.triangle_material[*t as usize] as usize].push(v as u32);
             }
         }
+        check_units(&members, &units)?;
         let all: Vec<(usize, u32)> = members
             .iter()
             .enumerate()
@@ -245,6 +252,7 @@ impl VertexPlan {
             groups,
             t2_slots,
             normals,
+            units,
             prepass_rays,
         })
     }
@@ -366,13 +374,11 @@ impl VertexPlan {
                  terms chosen are reported per group)",
                 match c.cluster_vertices {
                     Some(n) => format!("clusters of about {n} vertices"),
-                    None => {
-                        let [a, b, d] = super::AUTO_CLUSTER_VERTICES;
-                        format!(
-                            "clusters of {b} vertices, or {d} or {a} per group when that is \
-                             the smallest result meeting the target"
-                        )
-                    }
+                    None => format!(
+                        "units of up to {} vertices as 2 clusters, or 1 or 4 where that is \
+                         the smallest result meeting the target",
+                        super::units::UNIT_VERTICES
+                    ),
                 },
                 100.0 * c.error_target,
                 c.max_light_rank,
@@ -382,6 +388,35 @@ impl VertexPlan {
         }
         r
     }
+}
+
+/// Checks that `units` hold each non-empty group of `members` (per material, ascending), group
+/// after group, as contiguous ranges in order: what the streaming assembly writes.
+fn check_units(members: &[Vec<u32>], units: &[Unit]) -> Result<(), VertexError> {
+    let mut next = units.iter();
+    for (g, vs) in members.iter().filter(|m| !m.is_empty()).enumerate() {
+        let mut at = 0;
+        while at < vs.len() {
+            let Some(u) = next.next() else { break };
+            if u.group != g || vs.get(at..at + u.vertices.len()) != Some(&u.vertices[..]) {
+                break;
+            }
+            at += u.vertices.len();
+        }
+        if at != vs.len() || vs.windows(2).any(|w| w[1] != w[0] + 1) {
+            return Err(VertexError::Inconsistent(
+                "the scene's vertices are not in unit order: bake a scene prepared by \
+                 vertex::prepare_scene"
+                    .into(),
+            ));
+        }
+    }
+    if next.next().is_some() {
+        return Err(VertexError::Inconsistent(
+            "more units than the groups' vertices".into(),
+        ));
+    }
+    Ok(())
 }
 
 /// The materials (with slots) that the first rays of vertex `v` reach from their front, and

@@ -49,16 +49,19 @@ fn relative(part: f64, whole: f64) -> f64 {
 /// as T1's and T2's are against their dense tensors: the trace's own truncation to `terms`
 /// is typically 10-20 % of a row's energy already (cosine-weighted visibility is not sparse
 /// in Haar), yet the sky's light meets mostly the largest terms, so the image barely moves.
+#[cfg(test)]
 pub(crate) fn choose_t0_terms(value: &[f32], terms: usize, target: f64) -> T0Choice {
-    if terms == 0 {
-        return T0Choice {
-            terms: 0,
-            cut: 0.0,
-            stored: 0.0,
-        };
-    }
-    // energy_at[p]: the sum over rows of the square of each row's (p+1)-th largest term.
+    choose_from_energy(&energy_at(value, terms), target)
+}
+
+/// `energy_at[p]`: the sum over the rows of `value` (`terms` stored terms each) of the square
+/// of each row's (p+1)-th largest term. Sums of these over the units of a group, in unit
+/// order, give the group's, so each unit computes its own and the choice needs no unit's rows.
+pub(crate) fn energy_at(value: &[f32], terms: usize) -> Vec<f64> {
     let mut energy_at = vec![0.0f64; terms];
+    if terms == 0 {
+        return energy_at;
+    }
     let mut squares = Vec::with_capacity(terms);
     for row in value.chunks_exact(terms) {
         squares.clear();
@@ -67,6 +70,19 @@ pub(crate) fn choose_t0_terms(value: &[f32], terms: usize, target: f64) -> T0Cho
         for (e, s) in energy_at.iter_mut().zip(&squares) {
             *e += s;
         }
+    }
+    energy_at
+}
+
+/// [`choose_t0_terms`] from a group's [`energy_at`] (its length is the stored terms).
+pub(crate) fn choose_from_energy(energy_at: &[f64], target: f64) -> T0Choice {
+    let terms = energy_at.len();
+    if terms == 0 {
+        return T0Choice {
+            terms: 0,
+            cut: 0.0,
+            stored: 0.0,
+        };
     }
     let stored: f64 = energy_at.iter().sum();
     // Walk K down from `terms`, adding the energy of the K-th largest terms as they go.

@@ -65,8 +65,38 @@ pub struct VertexResult {
     pub t1: Vec<f32>,
     /// `[24][J][I][channels]` (empty with two reflections).
     pub t2: Vec<f32>,
+    /// The estimated Monte Carlo noise energy of `t1` and `t2` (the expected squared distance
+    /// from the converged tensors), from independent halves of the N1 directions
+    /// ([`half_noise`]).
+    pub t1_noise: f64,
+    pub t2_noise: f64,
     /// Rays traced for this vertex.
     pub rays: u64,
+}
+
+/// The noise energy of a Monte Carlo estimate `full` (a sum over N1 samples, `n1` of them)
+/// from the part `odd` the odd-numbered samples added: the even and odd halves are independent
+/// estimates (as sums scaled to N1 samples, `A = even N1 / n_even`, `B = odd N1 / n_odd`), so
+/// `E|A - B|^2 = Var(sample) (1/n_even + 1/n_odd)`, and the full estimate's noise energy is
+/// `Var(sample) / N1 = |A - B|^2 / (N1 (1/n_even + 1/n_odd))`. With the lattice of first
+/// directions this overestimates the noise a little (a half-lattice converges more slowly than
+/// the whole); docs/vertex.md, "What the error target means", measures it. 0 for N1 < 2.
+pub fn half_noise(full: &[f64], odd: &[f64], n1: u32) -> f64 {
+    if n1 < 2 {
+        return 0.0;
+    }
+    let n = n1 as f64;
+    let n_odd = (n1 / 2) as f64;
+    let n_even = n - n_odd;
+    let diff: f64 = full
+        .iter()
+        .zip(odd)
+        .map(|(&f, &o)| {
+            let (a, b) = ((f - o) * n / n_even, o * n / n_odd);
+            (a - b) * (a - b)
+        })
+        .sum();
+    diff / (n * (1.0 / n_even + 1.0 / n_odd))
 }
 
 impl VertexResult {
@@ -255,12 +285,16 @@ impl<'a> VertexTracer<'a> {
         let i_n = self.plan.t2_slots.len();
         let mut t1 = vec![0.0f64; cube_len(T1_LIGHT_CUBE) * jn * SH_TERMS * c];
         let mut t2 = vec![0.0f64; cube_len(T2_LIGHT_CUBE) * jn * i_n * c];
+        // What the odd-numbered samples add, for the noise estimate (`half_noise`).
+        let mut t1_odd = vec![0.0f64; t1.len()];
+        let mut t2_odd = vec![0.0f64; t2.len()];
         let j_of = &self.active_index[g];
         let n1 = self.opts.samples as f64;
         let n2 = self.opts.secondary as f64;
         let walk_rays = self.walk(v, &frame, |b| {
             let off_y = self.layout.materials[b.y.material as usize].slot_offset as usize;
             let f2 = b.f2 as f64 / n2;
+            let odd = b.sample % 2 == 1;
             match b.second {
                 None => {
                     // Monte Carlo SH projection over x's hemisphere (pdf 1/(2 pi)) of the
@@ -277,7 +311,11 @@ impl<'a> VertexTracer<'a> {
                         for (s, y_s) in sh.iter().enumerate() {
                             let a = w * y_s;
                             for ch in 0..c {
-                                t1[base + s * c + ch] += a * val[ch] as f64;
+                                let x = a * val[ch] as f64;
+                                t1[base + s * c + ch] += x;
+                                if odd {
+                                    t1_odd[base + s * c + ch] += x;
+                                }
                             }
                         }
                     }
@@ -299,7 +337,11 @@ impl<'a> VertexTracer<'a> {
                             }
                             let base = ((l * jn + j as usize) * i_n + i as usize) * c;
                             for ch in 0..c {
-                                t2[base + ch] += w * (vy[ch] as f64 * vz[ch] as f64);
+                                let x = w * (vy[ch] as f64 * vz[ch] as f64);
+                                t2[base + ch] += x;
+                                if odd {
+                                    t2_odd[base + ch] += x;
+                                }
                             }
                         }
                     }
@@ -318,6 +360,8 @@ impl<'a> VertexTracer<'a> {
             t0_rows,
             t0,
             visibility,
+            t1_noise: half_noise(&t1, &t1_odd, self.opts.samples),
+            t2_noise: half_noise(&t2, &t2_odd, self.opts.samples),
             t1: t1.iter().map(|&x| x as f32).collect(),
             t2: t2.iter().map(|&x| x as f32).collect(),
             rays: direct_rays + walk_rays,

@@ -10,6 +10,7 @@
 
 mod measure;
 mod report;
+pub mod scale;
 mod sweep;
 
 use std::path::{Path, PathBuf};

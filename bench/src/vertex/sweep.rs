@@ -188,7 +188,7 @@ fn bake_one(
         precision: Some(Precision::F16),
         spp: quick.then_some(8),
         checkpoint,
-        keep_checkpoint,
+        keep_traced: keep_checkpoint,
         ..Default::default()
     };
     let measured = reset_peak_resident();
@@ -202,7 +202,7 @@ fn bake_one(
         compress_seconds: summary.timings.compress_seconds,
         vertices_per_second: summary.timings.vertices_per_second,
         peak_bytes: peak_resident_bytes().filter(|_| measured),
-        estimated_bytes: summary.estimated_bytes,
+        estimated_bytes: summary.estimate.bytes,
     })
 }
 
@@ -217,7 +217,7 @@ pub(crate) fn bake_from_one_trace(
     quick: bool,
 ) -> Result<Vec<Baked>> {
     let traced = dir.join(format!("{stem}.prtbake"));
-    let checkpoint = prt_bake::vertex::checkpoint_folder(&traced);
+    let checkpoint = prt_bake::shard::checkpoint_folder(&traced);
     if checkpoint.exists() {
         // A previous report run that stopped part-way: its checkpoint is this run's only if
         // its inputs match, which `Resume` checks; start clean instead of reasoning about it.

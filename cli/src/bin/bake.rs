@@ -3,11 +3,14 @@
 //!     bake scenes/cornell/bake.toml            bake the config (writes its output file)
 //!     bake scenes/cornell                      the same: a folder means its bake.toml
 //!     bake model.glb [--print-config]          bake a glTF with defaults (or print them)
+//!     bake CONFIG --shard I/N                  bake shard I of N into a shard file
+//!     bake merge SHARD... --out FILE           merge shard files into the bake file
 //!
 //! The config's `mode` picks the baker: per pixel (`run_pixel`) or per vertex (`run_vertex`;
 //! `--spp` is then N1, the directions traced from each vertex). A per-vertex bake saves its
-//! traced vertices in `<output>.partial/` as it goes; `--resume` continues a killed one, and
-//! with `--keep-checkpoint` recompresses a finished one with other `[vertex]` compression keys.
+//! finished units in `<output>.partial/` as it goes; `--resume` continues a killed one, and
+//! with `--keep-traced` recompresses a finished one with other `[vertex]` compression keys.
+//! Shards (docs/shards.md): `--shard I/N`, or a scheduler's job-array variables.
 //!
 //! Measurements and reports are the `bench` binary's (crate `prt-bench`).
 
@@ -15,14 +18,16 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{bail, Result};
-use clap::{Args, Parser, ValueEnum};
+use clap::{Args, Parser, Subcommand, ValueEnum};
 use prt_bake::config::{BakeConfig, Mode};
 use prt_bake::pixel::Precision;
 use prt_bake::progress::Progress;
 use prt_bake::run::{
-    load_scene, run_pixel, run_vertex, CheckpointMode, PixelRunSettings, VertexRunSettings,
+    load_scene, run_merge, run_pixel, run_vertex, CheckpointMode, PixelRunSettings,
+    VertexRunSettings,
 };
 use prt_bake::scene::Scene;
+use prt_bake::shard::ShardSpec;
 use prt_bake::units::human_bytes;
 use prt_cli::{parse_size, Stderr};
 
@@ -31,9 +36,33 @@ use prt_cli::{parse_size, Stderr};
     version,
     about = "PRT baker: bakes transfer tensors for editable-material relighting"
 )]
+#[command(args_conflicts_with_subcommands = true)]
 struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
     #[command(flatten)]
     bake: BakeArgs,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Merge the shard files of one bake (`bake CONFIG --shard I/N`) into the bake file:
+    /// byte-identical to the unsharded bake. A missing, duplicated, truncated or foreign shard
+    /// is refused by name, and nothing is written.
+    Merge {
+        /// The shard files, every one of the bake's, in any order.
+        #[arg(required = true)]
+        shards: Vec<PathBuf>,
+        /// The bake file to write.
+        #[arg(long)]
+        out: PathBuf,
+        /// No progress on stderr.
+        #[arg(long)]
+        quiet: bool,
+        /// Print one JSON object with the figures of the merge.
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 /// `--precision` (the library's `Precision` has no clap derive: the libraries stay CLI-free).
@@ -79,20 +108,28 @@ struct BakeArgs {
     /// error_target, else 6 for blinn-phong and 8 for ggx).
     #[arg(long)]
     basis_count: Option<usize>,
-    /// Continue a killed per-vertex bake from its checkpoint (`<output>.partial/`); the file is
-    /// the same bytes as an uninterrupted bake's. Refused, naming what changed, when the
-    /// config, scene, flags or program differ from the interrupted bake's.
+    /// Continue a killed per-vertex bake or shard from its checkpoint (`<output>.partial/`);
+    /// the file is the same bytes as an uninterrupted bake's. Refused, naming what changed,
+    /// when the config, scene, flags or program differ from the interrupted bake's.
     #[arg(long, conflicts_with = "no_checkpoint")]
     resume: bool,
-    /// Do not save a per-vertex bake's traced vertices as it goes (saves the checkpoint's disk
-    /// space, about the f32 size of the transfer tensors; a killed bake then starts over).
+    /// Do not keep a per-vertex bake's finished units for a resume (they are still written to
+    /// `<output>.partial/` as the bake's working storage, and removed if it fails; a killed
+    /// bake then starts over).
     #[arg(long)]
     no_checkpoint: bool,
-    /// Keep a per-vertex bake's checkpoint after the file is written. The checkpoint holds the
-    /// traced vertices before compression and its inputs leave out the `[vertex]` compression
-    /// keys, so `--resume` with other compression keys then recompresses without tracing.
-    #[arg(long, conflicts_with = "no_checkpoint")]
-    keep_checkpoint: bool,
+    /// Keep every unit's traced tensors before compression (about the f32 size of the dense
+    /// tensors on disk) and the checkpoint after the file is written: `--resume` with other
+    /// `[vertex]` compression keys then compresses again without tracing a ray.
+    #[arg(long, alias = "keep-checkpoint", conflicts_with = "no_checkpoint")]
+    keep_traced: bool,
+    /// Bake shard I of N (0-based, e.g. 0/4 .. 3/4) into a shard file (default name:
+    /// `<output>.shard-I-of-N`); `bake merge` makes the bake from all N. Without it, the
+    /// shard is read from a scheduler's job-array variables when set (Slurm
+    /// SLURM_ARRAY_TASK_ID/COUNT, Kubernetes JOB_COMPLETION_INDEX with PRT_SHARD_COUNT, AWS
+    /// Batch AWS_BATCH_JOB_ARRAY_INDEX/SIZE; docs/shards.md).
+    #[arg(long, value_parser = parse_shard)]
+    shard: Option<ShardSpec>,
     /// No progress or allocation report on stderr.
     #[arg(long)]
     quiet: bool,
@@ -105,7 +142,35 @@ fn main() -> ExitCode {
     prt_cli::exit_code(run(Cli::parse()))
 }
 
+fn parse_shard(text: &str) -> Result<ShardSpec, String> {
+    ShardSpec::parse(text).map_err(|e| e.to_string())
+}
+
 fn run(cli: Cli) -> Result<()> {
+    if let Some(Command::Merge {
+        shards,
+        out,
+        quiet,
+        json,
+    }) = cli.command
+    {
+        let progress = Stderr::new(quiet || json);
+        let summary = run_merge(&shards, &out, &progress)?;
+        if json {
+            print_json(&summary)?;
+        } else {
+            eprintln!(
+                "merged {} {} shards ({} units) into {} in {:.2} s: {}",
+                summary.shards,
+                summary.mode,
+                summary.units,
+                summary.output.display(),
+                summary.seconds,
+                human_bytes(summary.file_bytes)
+            );
+        }
+        return Ok(());
+    }
     let Some(input) = cli.bake.input.clone() else {
         bail!(
             "give a bake config, a scene folder or a glTF scene, e.g. `bake scenes/cornell` \
@@ -131,14 +196,24 @@ fn bake(input: &std::path::Path, a: &BakeArgs) -> Result<()> {
         ));
     }
     let config = resolved.config;
+    let shard = match a.shard {
+        Some(s) => Some(s),
+        None => match ShardSpec::from_scheduler(|k| std::env::var(k).ok())? {
+            Some((spec, from)) => {
+                progress.note(&format!("shard {spec} from the job array ({from})"));
+                Some(spec)
+            }
+            None => None,
+        },
+    };
     let scene = load_scene(&config, &progress)?;
     let precision = a.precision.map(|p| match p {
         PrecisionArg::F32 => Precision::F32,
         PrecisionArg::F16 => Precision::F16,
     });
     match config.mode {
-        Mode::Pixel => bake_pixel(&config, &scene, a, precision, &progress),
-        Mode::Vertex => bake_vertex(&config, &scene, a, precision, &progress),
+        Mode::Pixel => bake_pixel(&config, &scene, a, precision, shard, &progress),
+        Mode::Vertex => bake_vertex(&config, &scene, a, precision, shard, &progress),
     }
 }
 
@@ -147,17 +222,18 @@ fn bake_pixel(
     scene: &Scene,
     a: &BakeArgs,
     precision: Option<Precision>,
+    shard: Option<ShardSpec>,
     progress: &Stderr,
 ) -> Result<()> {
     for (given, flag) in [
-        (a.resume, "--resume"),
+        (a.resume && shard.is_none(), "--resume"),
         (a.no_checkpoint, "--no-checkpoint"),
-        (a.keep_checkpoint, "--keep-checkpoint"),
+        (a.keep_traced, "--keep-traced"),
     ] {
         if given {
             bail!(
-                "{flag} applies to per-vertex bakes (a per-pixel bake keeps no checkpoint); {} \
-                 has mode = \"pixel\"",
+                "{flag} applies to per-vertex bakes and per-pixel shards (a whole per-pixel bake \
+                 keeps no checkpoint); {} has mode = \"pixel\"",
                 config.config_path.display()
             );
         }
@@ -171,14 +247,19 @@ fn bake_pixel(
         max_memory: a.max_memory,
         compress_rank: a.compress_rank,
         basis_count: a.basis_count,
+        shard,
+        resume: a.resume,
     };
     let summary = run_pixel(config, scene, &settings, progress)?;
     if a.json {
         print_json(&summary)?;
     } else {
         eprintln!(
-            "baked {} in {:.2} s ({:.2} Mrays/s): {}",
+            "baked {}{} in {:.2} s ({:.2} Mrays/s): {}",
             summary.output.display(),
+            summary
+                .shard
+                .map_or(String::new(), |s| format!(" (shard {s})")),
             summary.seconds,
             summary.timings.rays_per_second / 1e6,
             human_bytes(summary.file_bytes)
@@ -192,6 +273,7 @@ fn bake_vertex(
     scene: &Scene,
     a: &BakeArgs,
     precision: Option<Precision>,
+    shard: Option<ShardSpec>,
     progress: &Stderr,
 ) -> Result<()> {
     // Flags of the per-pixel image have no meaning here: refuse rather than ignore them.
@@ -221,15 +303,19 @@ fn bake_vertex(
         max_memory: a.max_memory,
         basis_count: a.basis_count,
         checkpoint,
-        keep_checkpoint: a.keep_checkpoint,
+        keep_traced: a.keep_traced,
+        shard,
     };
     let summary = run_vertex(config, scene, &settings, progress)?;
     if a.json {
         print_json(&summary)?;
     } else {
         eprintln!(
-            "baked {} in {:.2} s ({} vertices, {:.0} vertices/s, {:.2} Mrays/s): {}",
+            "baked {}{} in {:.2} s ({} vertices, {:.0} vertices/s, {:.2} Mrays/s): {}",
             summary.output.display(),
+            summary
+                .shard
+                .map_or(String::new(), |s| format!(" (shard {s})")),
             summary.seconds,
             summary.vertices,
             summary.timings.vertices_per_second,

@@ -5,4 +5,6 @@ mod bad_input;
 mod end_to_end;
 mod memory;
 mod resume;
+mod shards;
 mod vertex;
+mod yard;

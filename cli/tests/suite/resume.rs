@@ -12,12 +12,12 @@ use crate::vertex::diffuse_vitrine;
 
 const BAKE: &str = env!("CARGO_BIN_EXE_bake");
 
-/// The wave files in a checkpoint folder (none when it does not exist).
+/// The finished units' pieces in a checkpoint folder (none when it does not exist).
 fn pieces(dir: &Path) -> Vec<String> {
     let mut out: Vec<String> = std::fs::read_dir(dir)
         .map(|d| {
             d.filter_map(|e| e.ok()?.file_name().into_string().ok())
-                .filter(|n| n.starts_with("group") && n.ends_with(".bin"))
+                .filter(|n| n.starts_with("unit") && n.ends_with(".piece"))
                 .collect()
         })
         .unwrap_or_default();
@@ -167,16 +167,13 @@ fn a_killed_vertex_bake_resumes_to_the_same_bytes_and_refuses_other_inputs() {
 }
 
 #[test]
-fn a_kept_checkpoint_recompresses_with_other_compression_keys_without_tracing() {
+fn kept_traced_tensors_recompress_with_other_compression_keys_without_tracing() {
     let dir = tempfile::tempdir().expect("temp dir");
     let config = diffuse_vitrine(dir.path());
     let kept = dir.path().join("kept.prtbake");
     let checkpoint = dir.path().join("kept.prtbake.partial");
-    bake(&[s(&config), "--out", s(&kept), "--keep-checkpoint"], "2");
-    assert!(
-        checkpoint.exists(),
-        "--keep-checkpoint removed the checkpoint"
-    );
+    bake(&[s(&config), "--out", s(&kept), "--keep-traced"], "2");
+    assert!(checkpoint.exists(), "--keep-traced removed the checkpoint");
     let first = std::fs::read(&kept).expect("first bake");
 
     // Other compression keys: not part of the checkpoint's inputs.
@@ -184,7 +181,7 @@ fn a_kept_checkpoint_recompresses_with_other_compression_keys_without_tracing() 
     let text = std::fs::read_to_string(&config).expect("config");
     std::fs::write(
         &other,
-        format!("{text}\n[vertex]\ncompress_error = 0.3\ncluster_vertices = 64\n"),
+        format!("{text}\n[vertex]\ncompress_error = 0.3\nlight_rank = 4\n"),
     )
     .expect("write config");
     let fresh = dir.path().join("fresh.prtbake");
@@ -192,11 +189,19 @@ fn a_kept_checkpoint_recompresses_with_other_compression_keys_without_tracing() 
     let want = std::fs::read(&fresh).expect("fresh bake");
     assert_ne!(want, first, "the compression keys changed nothing");
 
-    // Resumed on one thread: every vertex comes from the checkpoint, the bytes are a fresh
-    // bake's with the new keys, and the checkpoint goes once the file is written.
+    // Resumed on one thread: every unit comes from its traced tensors (none is done: the
+    // finished pieces were compressed with the old keys), the bytes are a fresh bake's with the
+    // new keys, and the checkpoint goes once the file is written.
     let log = bake(&[s(&other), "--out", s(&kept), "--resume"], "1");
+    let units = log
+        .split(": 0 of ")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .unwrap_or_else(|| panic!("no 'resuming from ...: 0 of U units' line: {log}"));
     assert!(
-        log.contains("3106 of 3106 vertices already traced"),
+        log.contains(&format!(
+            "0 of {units} units already done, {units} to compress again from their traced tensors"
+        )),
         "the resume traced again: {log}"
     );
     assert_eq!(
@@ -206,6 +211,6 @@ fn a_kept_checkpoint_recompresses_with_other_compression_keys_without_tracing() 
     );
     assert!(
         !checkpoint.exists(),
-        "the checkpoint outlived a bake without --keep-checkpoint"
+        "the checkpoint outlived a bake without --keep-traced"
     );
 }

@@ -99,7 +99,7 @@ impl_element!(f32 => F32, half::f16 => F16, u32 => U32, u16 => U16, u8 => U8, i3
 
 /// Little-endian bytes of a typed slice: a borrowed reinterpretation on little-endian hosts
 /// (no copy), a converted copy on big-endian ones.
-pub(super) fn element_bytes<T: Element>(data: &[T]) -> Cow<'_, [u8]> {
+pub fn element_bytes<T: Element>(data: &[T]) -> Cow<'_, [u8]> {
     if cfg!(target_endian = "little") {
         // SAFETY: `T` is a sealed plain number type without padding (see `Element`), so its
         // memory is `size_of_val(data)` initialized bytes; `u8` has alignment 1, and the

@@ -47,7 +47,7 @@ mod read;
 mod write;
 
 pub use atomic::write_file_atomic;
-pub use dtype::{Dtype, Element};
+pub use dtype::{element_bytes, Dtype, Element};
 pub use error::FormatError;
 pub use read::{BakeFile, TensorView};
 pub use write::{BakeWriter, TensorSource};

@@ -26,7 +26,7 @@ enum TensorData<'a> {
     Bytes(Cow<'a, [u8]>),
     Streamed {
         len: usize,
-        source: Box<dyn TensorSource + 'a>,
+        source: &'a dyn TensorSource,
     },
 }
 
@@ -136,15 +136,16 @@ impl<'a> BakeWriter<'a> {
         self.add_data(name, dtype, shape, TensorData::Bytes(data.into()))
     }
 
-    /// Adds a tensor of `len` bytes whose bytes `source` produces when the file is laid out
-    /// and written (see [`TensorSource`]); nothing is read until then.
+    /// Adds a tensor of `len` bytes whose bytes `source` (borrowed, like every tensor's data)
+    /// produces when the file is laid out and written (see [`TensorSource`]); nothing is read
+    /// until then.
     pub fn add_streamed(
         &mut self,
         name: &str,
         dtype: Dtype,
         shape: &[usize],
         len: usize,
-        source: Box<dyn TensorSource + 'a>,
+        source: &'a dyn TensorSource,
     ) -> Result<()> {
         self.add_data(name, dtype, shape, TensorData::Streamed { len, source })
     }

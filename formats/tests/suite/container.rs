@@ -676,18 +676,13 @@ fn streamed_tensors_give_the_same_file_as_tensors_in_memory() {
     a.set_metadata(json!({"k": 1}));
     let mut b = BakeWriter::new();
     b.add_f32("pad", &[3], &pad).unwrap();
-    b.add_streamed(
-        "counter",
-        Dtype::U32,
-        &[10, 100],
-        4000,
-        Box::new(Counter {
-            values: 1000,
-            chunk: 37,
-            extra: 0,
-        }),
-    )
-    .unwrap();
+    let counter = Counter {
+        values: 1000,
+        chunk: 37,
+        extra: 0,
+    };
+    b.add_streamed("counter", Dtype::U32, &[10, 100], 4000, &counter)
+        .unwrap();
     b.set_metadata(json!({"k": 1}));
     assert_eq!(a.to_bytes().unwrap(), b.to_bytes().unwrap());
     let path = dir.join("s.prtbake");
@@ -698,21 +693,21 @@ fn streamed_tensors_give_the_same_file_as_tensors_in_memory() {
 
     // A declared length that does not match the shape, and a source that writes more than
     // it declared, are refused naming the tensor; nothing is written.
-    let mut c = BakeWriter::new();
-    let bad = Box::new(Counter {
+    let bad = Counter {
         values: 1000,
         chunk: 64,
         extra: 0,
-    });
-    assert!(c
-        .add_streamed("counter", Dtype::U32, &[999], 4000, bad)
-        .is_err());
-    let liar = Box::new(Counter {
+    };
+    let liar = Counter {
         values: 1000,
         chunk: 64,
         extra: 4,
-    });
-    c.add_streamed("counter", Dtype::U32, &[1000], 4000, liar)
+    };
+    let mut c = BakeWriter::new();
+    assert!(c
+        .add_streamed("counter", Dtype::U32, &[999], 4000, &bad)
+        .is_err());
+    c.add_streamed("counter", Dtype::U32, &[1000], 4000, &liar)
         .unwrap();
     let e = c
         .write_atomic(dir.join("liar.prtbake"))

@@ -136,7 +136,7 @@ fn tiny_vertex_bake(out: &Path, compressed: bool) -> anyhow::Result<Vec<u8>> {
     use glam::Vec3;
     use prt_bake::brdf::BrdfParams;
     use prt_bake::scene::Environment;
-    use prt_bake::vertex::{bake_vertex, write_vertex_file, VertexBakeOptions};
+    use prt_bake::vertex::{bake_vertex, VertexBakeOptions};
     let mut b = prt_bake::testing::SceneBuilder::new();
     let floor = b.material(
         "floor",
@@ -175,9 +175,8 @@ fn tiny_vertex_bake(out: &Path, compressed: bool) -> anyhow::Result<Vec<u8>> {
         }),
         ..Default::default()
     };
-    let bake = bake_vertex(&scene, &[], &[], &opts, None)?;
     let path = out.join(format!("vertex-{compressed}.prtbake"));
-    write_vertex_file(&bake, &path)?;
+    bake_vertex(&scene, &[], &[], &opts, &path, None)?;
     Ok(std::fs::read(&path)?)
 }
 
@@ -232,8 +231,6 @@ fn tiny_bake(
 fn writer_seeds() -> anyhow::Result<Vec<Vec<u8>>> {
     let mut out = Vec::new();
     out.push(BakeWriter::new().to_bytes()?);
-    let mut w = BakeWriter::new();
-    w.set_metadata(serde_json::json!({"camera": {"fov": 45.0}, "list": [1, 2, 3]}));
     let f32s = [0.25f32, -3.0, 1e30, 0.0, 7.5];
     let u32s = [0u32, 1, 4_000_000_000];
     let u16s = [1u16, 65535, 3];
@@ -241,6 +238,9 @@ fn writer_seeds() -> anyhow::Result<Vec<Vec<u8>>> {
     let u8s = [1u8, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13];
     // 1.0, -2.0 and 0.5 as little-endian f16 bit patterns.
     let f16s = [0x00u8, 0x3C, 0x00, 0xC0, 0x00, 0x38];
+    // Declared after the data it borrows: a writer may hold streamed sources, which borrow too.
+    let mut w = BakeWriter::new();
+    w.set_metadata(serde_json::json!({"camera": {"fov": 45.0}, "list": [1, 2, 3]}));
     w.add_u8("mask", &[13], &u8s)?;
     w.add_f32("t0", &[5], &f32s)?;
     w.add_u32("idx", &[3], &u32s)?;

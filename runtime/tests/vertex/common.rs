@@ -543,6 +543,8 @@ impl Bake {
                 let figures = |b: usize| prt_formats::clustered::TensorCompression {
                     vertex_rank: b as u32,
                     error: 0.0,
+                    noise: None,
+                    beyond_noise: None,
                 };
                 gm.compression = Some(prt_formats::clustered::GroupCompression {
                     clusters: k as u32,

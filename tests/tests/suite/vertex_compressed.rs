@@ -17,7 +17,7 @@ use prt_bake::brdf::Family;
 use prt_bake::integrator::Integrator;
 use prt_bake::lights::LightSet;
 use prt_bake::pixel::SlotPlan;
-use prt_bake::vertex::{bake_vertex_with, write_vertex_file, VertexBakeOptions, VertexPlan};
+use prt_bake::vertex::{bake_vertex_with, prepare_scene, VertexBakeOptions, VertexPlan};
 use prt_formats::clustered::CompressionSettings;
 use prt_formats::pixel::Precision;
 use prt_runtime::vertex::{VertexIncident, VertexRelighter};
@@ -27,7 +27,10 @@ use super::vertex_exactness::{environment, scene, EDITS};
 
 /// Bakes the exactness scene with `compression` (None: dense) and opens it relit.
 fn relit(name: &str, compression: Option<CompressionSettings>) -> VertexRelighter {
-    let scene = scene();
+    // Welded and ordered by unit, as every per-vertex bake is: the tracer below sees the same
+    // vertices as the file.
+    let prepared = prepare_scene(&scene());
+    let scene = prepared.scene;
     let bases = vec![small_basis(Family::Ggx, 4)];
     let shading = vec![default_shading_basis(Family::Ggx).expect("GGX shading basis")];
     let opts = VertexBakeOptions {
@@ -43,10 +46,9 @@ fn relit(name: &str, compression: Option<CompressionSettings>) -> VertexRelighte
     let accel = Accel::build(&scene);
     let lights = LightSet::new(&scene);
     let integ = Integrator::new(&scene, &accel, &lights, 3, 1, 1);
-    let plan = VertexPlan::new(&integ, slots, &opts, None).expect("vertex plan");
-    let bake = bake_vertex_with(&integ, &plan, &bases, &shading, &opts, None).expect("bake");
+    let plan = VertexPlan::new(&integ, slots, &opts, prepared.units, None).expect("vertex plan");
     let path = temp_path(name);
-    write_vertex_file(&bake, &path).expect("write");
+    bake_vertex_with(&integ, &plan, &bases, &shading, &opts, &path, None).expect("bake");
     let mut r = VertexRelighter::open(&path).expect("open");
     let (w, h, texels) = environment();
     r.set_environment_latlong(w, h, texels, 30.0)

@@ -43,7 +43,7 @@ use prt_bake::pixel::SlotPlan;
 use prt_bake::scene::{Environment, Scene};
 use prt_bake::testing::SceneBuilder;
 use prt_bake::vertex::{
-    bake_vertex_with, write_vertex_file, VertexBakeOptions, VertexPlan, VertexTracer, T0_TEXELS,
+    bake_vertex_with, prepare_scene, VertexBakeOptions, VertexPlan, VertexTracer, T0_TEXELS,
 };
 use prt_formats::basis::{ShadingBasis, MAX_SHADING_RANK};
 use prt_formats::lighting::cubemap::{
@@ -302,7 +302,10 @@ impl Sum {
 
 #[test]
 fn relit_incident_light_equals_an_independent_projection_of_the_traced_paths() {
-    let scene = scene();
+    // Welded and ordered by unit, as every per-vertex bake is: the tracer below sees the same
+    // vertices as the file.
+    let prepared = prepare_scene(&scene());
+    let scene = prepared.scene;
     let bases = vec![small_basis(Family::Ggx, 4)];
     let shading = vec![default_shading_basis(Family::Ggx).expect("GGX shading basis")];
     let opts = VertexBakeOptions {
@@ -319,11 +322,9 @@ fn relit_incident_light_equals_an_independent_projection_of_the_traced_paths() {
     let accel = Accel::build(&scene);
     let lights = LightSet::new(&scene);
     let integ = Integrator::new(&scene, &accel, &lights, opts.reflections as usize, 1, 1);
-    let plan = VertexPlan::new(&integ, slots, &opts, None).expect("vertex plan");
-    let bake = bake_vertex_with(&integ, &plan, &bases, &shading, &opts, None).expect("bake");
+    let plan = VertexPlan::new(&integ, slots, &opts, prepared.units, None).expect("vertex plan");
     let path = temp_path("exactness-vertex.prt");
-    write_vertex_file(&bake, &path).expect("write the vertex bake");
-    drop(bake);
+    bake_vertex_with(&integ, &plan, &bases, &shading, &opts, &path, None).expect("the vertex bake");
     // The same plan, layout and options as the bake: the same paths.
     let layout = plan.layout(&bases).expect("layout");
     let tracer = VertexTracer::new(&integ, &plan, &layout, &shading, &opts).expect("vertex tracer");

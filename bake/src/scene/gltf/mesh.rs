@@ -9,7 +9,9 @@ use gltf::mesh::Mode as PrimitiveMode;
 use gltf::Semantic;
 
 use super::accessors;
+use super::facets::{analyse, Facets};
 use super::Loader;
+use crate::config::MissingNormals;
 use crate::scene::error::MeshError;
 use crate::scene::SceneError;
 
@@ -39,6 +41,8 @@ pub(super) struct Geometry {
     pub triangle_material: Vec<u32>,
     pub skipped: usize,
     pub repaired_normals: usize,
+    /// Primitives without normals baked faceted: mesh name and what it costs.
+    pub faceted: Vec<(String, Facets)>,
     pub repaired_uvs: usize,
     pub uses_default_material: bool,
 }
@@ -201,11 +205,19 @@ impl Loader<'_> {
                 .chunks_exact(3)
                 .map(|c| world.transform_point3(Vec3::new(c[0], c[1], c[2])))
                 .collect();
-            let wnor: Option<Vec<Vec3>> = nor.map(|n| {
-                n.chunks_exact(3)
-                    .map(|c| (normal_matrix * Vec3::new(c[0], c[1], c[2])).normalize_or_zero())
-                    .collect()
-            });
+            // Without normals and asked for smooth ones: zero normals, which the repair below
+            // replaces by the area-weighted normal of the faces around each vertex.
+            let smoothing = nor.is_none() && self.config.missing_normals == MissingNormals::Smooth;
+            let wnor: Option<Vec<Vec3>> = match nor {
+                Some(n) => Some(
+                    n.chunks_exact(3)
+                        .map(|c| (normal_matrix * Vec3::new(c[0], c[1], c[2])).normalize_or_zero())
+                        .collect(),
+                ),
+                None if smoothing => Some(vec![Vec3::ZERO; n_verts]),
+                None => None,
+            };
+            let mut flat_faces: Vec<([u32; 3], Vec3)> = Vec::new();
             let get_uv = |v: usize, geo_repaired: &mut usize| -> Vec2 {
                 match &uv {
                     Some(u) => {
@@ -250,6 +262,7 @@ impl Loader<'_> {
                 match &wnor {
                     None => {
                         // Flat normals (glTF spec 3.7.2.1): unshared vertices per triangle.
+                        flat_faces.push(([a as u32, b as u32, c as u32], cross.normalize()));
                         for (k, &v) in [a, b, c].iter().enumerate() {
                             out[k] = geo.positions.len() as u32;
                             geo.positions.push(wpos[v]);
@@ -281,7 +294,16 @@ impl Loader<'_> {
             }
             for (v, sum) in fix {
                 geo.normals[v as usize] = sum.normalize_or(Vec3::Y);
-                geo.repaired_normals += 1;
+                // Asked-for smooth normals are no repair to report.
+                if !smoothing {
+                    geo.repaired_normals += 1;
+                }
+            }
+            if !flat_faces.is_empty() {
+                let facets = analyse(&flat_faces);
+                if facets.creased() {
+                    geo.faceted.push((mesh_label(mesh), facets));
+                }
             }
         }
         Ok(())

@@ -31,6 +31,7 @@ use source::UriTarget;
 
 pub mod accessors;
 pub mod camera;
+mod facets;
 mod lights;
 pub mod material;
 mod mesh;
@@ -329,6 +330,24 @@ impl Loader<'_> {
                 self.path.display(),
                 geo.repaired_normals
             ));
+        }
+        for (mesh, f) in &geo.faceted {
+            let mut line = format!(
+                "{}: mesh \"{mesh}\" has no normals and is baked faceted (the glTF rule: flat \
+                 normals): {} vertices per vertex bake, where smooth normals would need {}",
+                self.path.display(),
+                f.faceted_vertices,
+                f.smooth_vertices
+            );
+            if f.looks_smooth() {
+                line.push_str(&format!(
+                    "; its faces meet at a median {:.1} degrees, so it is probably meant to be \
+                     smooth: set missing_normals = \"smooth\" in the config to compute smooth \
+                     normals",
+                    f.median_crease_degrees.unwrap_or(0.0)
+                ));
+            }
+            self.warnings.push(line);
         }
         if geo.repaired_uvs > 0 {
             self.warnings.push(format!(

@@ -1,5 +1,5 @@
-//! What the compressed bake chooses from the error target: the cluster size of each group
-//! (`cluster_choice.rs`, through `compress_group`) and the T0 Haar terms it keeps
+//! What the compressed bake chooses from the error target: the split of each unit
+//! (`cluster_choice.rs`, through `compress_unit`) and the T0 Haar terms each group keeps
 //! (`t0_choice.rs`, through a whole bake).
 
 use glam::Vec3;
@@ -7,20 +7,19 @@ use prt_formats::clustered::CompressionSettings;
 use prt_formats::pixel::Precision;
 use prt_formats::vertex::{cube_len, SH_TERMS, T1_LIGHT_CUBE};
 
-use super::super::cluster::cluster_vertices;
-use super::super::compress::{compress_group, compress_tensor, GroupShape};
+use super::super::cluster_choice::PartsCandidate;
+use super::super::unit::{compress_unit, TracedUnit};
 use super::*;
 
-/// A Lambert sphere subdivided 3 times (642 vertices), its vertices and normals.
-fn sphere() -> (Scene, Vec<u32>, Vec<Vec3>) {
+/// A Lambert sphere subdivided 3 times (642 vertices), prepared: its units and normals.
+fn sphere() -> (Vec<Unit>, Vec<Vec3>) {
     let mut b = SceneBuilder::new();
     let m = b.material("ball", lambert(0.5), Vec3::ZERO, true);
     b.sphere(Vec3::ZERO, 1.0, 3, m);
     b.environment(Environment::Constant(Vec3::ONE));
-    let scene = b.build();
-    let normals: Vec<Vec3> = scene.positions.iter().map(|p| p.normalize()).collect();
-    let vertices = (0..scene.positions.len() as u32).collect();
-    (scene, vertices, normals)
+    let p = prepare_scene(&b.build());
+    let normals: Vec<Vec3> = p.scene.positions.iter().map(|q| q.normalize()).collect();
+    (p.units, normals)
 }
 
 /// A T1 for one active slot, gray: per vertex a function of its normal over the light bins
@@ -54,13 +53,6 @@ fn synthetic_t1(normals: &[Vec3]) -> Vec<f32> {
     t
 }
 
-const SHAPE: GroupShape = GroupShape {
-    active: 1,
-    t2_slots: 0,
-    channels: 1,
-    reflections: 2,
-};
-
 fn settings(target: f32, cluster_vertices: Option<u32>) -> CompressionSettings {
     CompressionSettings {
         error_target: target,
@@ -71,117 +63,90 @@ fn settings(target: f32, cluster_vertices: Option<u32>) -> CompressionSettings {
     }
 }
 
-#[test]
-fn an_explicit_cluster_size_compresses_as_before() {
-    let (scene, vertices, normals) = sphere();
-    let t1 = synthetic_t1(&normals);
-    let s = settings(0.1, Some(100));
-    let got = compress_group(
-        &scene,
-        &normals,
-        &vertices,
-        &t1,
-        &[],
-        SHAPE,
-        &s,
-        Precision::F16,
-    )
-    .unwrap();
-    // The path before clusters were chosen: ceil(V / cluster_vertices) clusters, one
-    // compression.
-    let positions: Vec<[f32; 3]> = scene.positions.iter().map(|p| p.to_array()).collect();
-    let nrm: Vec<[f32; 3]> = normals.iter().map(|n| n.to_array()).collect();
-    let (clusters, count) = cluster_vertices(&positions, &nrm, vertices.len().div_ceil(100));
-    let width = SHAPE.active * SH_TERMS * SHAPE.channels;
-    let before = compress_tensor(&t1, cube_len(T1_LIGHT_CUBE), width, &clusters, count, &s)
-        .unwrap()
-        .store(Precision::F16);
-    assert_eq!(got.tried.len(), 1);
-    assert_eq!(got.meta.clusters as usize, count);
-    assert_eq!(got.data.clusters, clusters);
-    assert_eq!(got.data.t1, before.0);
-    assert_eq!(got.scale_t1, before.1);
-    assert!(!got.summary.contains("tried"), "{}", got.summary);
+/// A unit's traced tensors with the synthetic T1 (no noise estimate).
+fn traced(unit: &Unit, normals: &[Vec3]) -> TracedUnit {
+    let n: Vec<Vec3> = unit.vertices.iter().map(|&v| normals[v as usize]).collect();
+    TracedUnit {
+        t1: synthetic_t1(&n),
+        t1_noise: vec![0.0; n.len()],
+        t2_noise: vec![0.0; n.len()],
+        ..Default::default()
+    }
+}
+
+fn compress(unit: &Unit, t: &TracedUnit, s: &CompressionSettings) -> (usize, Vec<PartsCandidate>) {
+    let dims = (cube_len(T1_LIGHT_CUBE), SH_TERMS, 0, 0);
+    let (parts, _, _, tried) = compress_unit(unit, t, dims, false, s, 2).unwrap();
+    (parts, tried)
 }
 
 #[test]
-fn auto_clusters_keep_the_smallest_candidate_that_meets_the_target() {
-    let (scene, vertices, normals) = sphere();
-    let t1 = synthetic_t1(&normals);
+fn an_explicit_cluster_size_compresses_once_with_the_nearest_split() {
+    let (units, normals) = sphere();
+    for u in units.iter().filter(|u| u.vertices.len() > 128) {
+        let n = u.vertices.len() as u32;
+        for (size, parts) in [
+            (n / 4, 4),
+            (n / 2 - 5, 2),
+            (n / 2 + 5, 2),
+            (n - 10, 1),
+            (n, 1),
+        ] {
+            let (got, tried) = compress(u, &traced(u, &normals), &settings(0.1, Some(size)));
+            assert_eq!((got, tried.len()), (parts, 1), "size {size}");
+            assert_eq!(tried[0].parts, parts);
+        }
+    }
+}
+
+#[test]
+fn each_unit_keeps_the_smallest_split_that_meets_the_target() {
+    let (units, normals) = sphere();
+    assert!(units.len() >= 3, "{} units", units.len());
     let mut met_and_missed = (false, false);
     let mut kept_meeting = Vec::new();
     for target in [0.003f32, 0.02, 0.05, 0.1, 0.2] {
-        let auto = compress_group(
-            &scene,
-            &normals,
-            &vertices,
-            &t1,
-            &[],
-            SHAPE,
-            &settings(target, None),
-            Precision::F16,
-        )
-        .unwrap();
-        // The default first, then larger clusters when it met the target, smaller when not.
-        let sizes: Vec<u32> = auto.tried.iter().map(|c| c.cluster_vertices).collect();
-        let next = if auto.tried[0].meets(target) { 256 } else { 64 };
-        assert_eq!(sizes, [128, next], "target {target}");
-        // Each candidate is what an explicit size gives, figures and all.
-        let mut explicit = Vec::new();
-        for c in &auto.tried {
-            let e = compress_group(
-                &scene,
-                &normals,
-                &vertices,
-                &t1,
-                &[],
-                SHAPE,
-                &settings(target, Some(c.cluster_vertices)),
-                Precision::F16,
-            )
-            .unwrap();
-            assert_eq!(&e.tried[0], c, "target {target}");
-            explicit.push(e);
-        }
-        let chosen = auto
-            .tried
-            .iter()
-            .position(|c| c.clusters == auto.meta.clusters as usize)
-            .expect("the chosen count is a candidate's");
-        let c = &auto.tried[chosen];
-        println!("target {target}: kept {c:?} of {:?}", auto.tried);
-        assert_eq!(auto.data.t1, explicit[chosen].data.t1, "target {target}");
-        if c.meets(target) {
-            met_and_missed.0 = true;
-            kept_meeting.push(c.cluster_vertices);
-            // Never larger than another candidate that meets the target.
-            for o in &auto.tried {
-                assert!(
-                    !o.meets(target) || o.bytes >= c.bytes,
-                    "target {target}: kept {c:?} over {o:?}"
-                );
+        for u in &units {
+            let t = traced(u, &normals);
+            let (parts, tried) = compress(u, &t, &settings(target, None));
+            // Halves first, then one cluster when they met the target, quarters when not.
+            let next = if tried[0].meets(target) { 1 } else { 4 };
+            let order: Vec<usize> = tried.iter().map(|c| c.parts).collect();
+            assert_eq!(order, [2, next], "target {target}");
+            // Each candidate is what that split alone gives (an explicit size of its
+            // clusters), figures and all.
+            for c in &tried {
+                let size = (u.vertices.len() / c.parts) as u32;
+                let (_, alone) = compress(u, &t, &settings(target, Some(size)));
+                assert_eq!(&alone[0], c, "target {target}");
             }
-            assert!(auto.summary.contains("the smallest meeting the target"));
-        } else {
-            met_and_missed.1 = true;
-            assert!(auto.tried.iter().all(|o| !o.meets(target)));
-            // Neither meets it: the default size stays.
-            assert_eq!(c.cluster_vertices, 128, "target {target}");
-            assert!(auto.summary.contains("none meets the target"));
+            let c = tried.iter().find(|c| c.parts == parts).unwrap();
+            if c.meets(target) {
+                met_and_missed.0 = true;
+                kept_meeting.push(parts);
+                for o in &tried {
+                    assert!(!o.meets(target) || o.bytes >= c.bytes, "{c:?} over {o:?}");
+                }
+            } else {
+                met_and_missed.1 = true;
+                assert!(tried.iter().all(|o| !o.meets(target)));
+                assert_eq!(parts, 2, "target {target}: neither meets it, halves stay");
+            }
+            assert!(tried.windows(2).all(|w| w[0].bytes != w[1].bytes));
         }
-        // The candidates differ: the choice matters.
-        assert!(auto.tried.windows(2).all(|w| w[0].bytes != w[1].bytes));
     }
     assert_eq!(met_and_missed, (true, true), "both branches exercised");
-    // The size kept depends on the target: neither the smallest nor the largest always wins.
     assert!(
-        kept_meeting.contains(&64) && kept_meeting.contains(&256),
+        kept_meeting.contains(&1) && kept_meeting.contains(&4),
         "{kept_meeting:?}"
     );
 }
 
 /// The floor-and-ball scene baked with `compression`, at f32 so that values compare exactly.
-fn floor_and_ball_bake(compression: Option<CompressionSettings>) -> VertexBake {
+fn floor_and_ball_bake(
+    compression: Option<CompressionSettings>,
+    name: &str,
+) -> (VertexBakeResult, prt_formats::BakeFile) {
     let opts = VertexBakeOptions {
         samples: 8,
         t0_terms: 64,
@@ -189,7 +154,7 @@ fn floor_and_ball_bake(compression: Option<CompressionSettings>) -> VertexBake {
         compression,
         ..Default::default()
     };
-    bake_vertex(&floor_and_ball(), &[], &[], &opts, None).unwrap()
+    bake_file(&floor_and_ball(), &opts, name)
 }
 
 /// Relative L2 over a group of keeping each row's `k` largest of its `terms` stored values.
@@ -206,27 +171,32 @@ fn cut_error(value: &[f32], terms: usize, k: usize) -> f64 {
 
 #[test]
 fn compressed_groups_keep_the_fewest_t0_terms_meeting_their_target() {
-    let dense = floor_and_ball_bake(None);
+    use prt_formats::vertex::names;
+    let (dense, dense_file) = floor_and_ball_bake(None, "t0-dense");
     let mut settings = crate::vertex::default_compression();
     let mut cut_somewhere = false;
     for target in [0.1f32, 0.4, 0.8] {
         settings.error_target = target;
-        let compressed = floor_and_ball_bake(Some(settings));
+        let (compressed, file) = floor_and_ball_bake(Some(settings), &format!("t0-{target}"));
         let t0_target = f64::from(target * super::super::t0_choice::T0_ERROR_SHARE);
-        for (g, (gm, (d, c))) in compressed
-            .meta
-            .groups
-            .iter()
-            .zip(dense.groups.iter().zip(&compressed.groups))
-            .enumerate()
-        {
+        for (g, gm) in compressed.meta.groups.iter().enumerate() {
             assert_eq!(
                 dense.meta.groups[g].t0_terms, None,
                 "dense groups store all"
             );
             let k = gm.t0_terms.expect("a compressed group says its terms") as usize;
             assert!((1..=64).contains(&k));
-            let value = d.t0_value.to_f32();
+            let value = dense_file
+                .tensor(&names::t0_value(g))
+                .unwrap()
+                .to_f32_vec()
+                .unwrap();
+            let index = dense_file
+                .tensor(&names::t0_index(g))
+                .unwrap()
+                .as_u16()
+                .unwrap()
+                .to_vec();
             let e = cut_error(&value, 64, k);
             assert!(
                 e <= t0_target + 1e-9,
@@ -242,7 +212,22 @@ fn compressed_groups_keep_the_fewest_t0_terms_meeting_their_target() {
             cut_somewhere |= k < 64;
             // The rows are the dense bake's cut to their K largest, the layout kept.
             let rows = value.len() / 64;
-            let (ci, cv) = (&c.t0_index, c.t0_value.to_f32());
+            let ci = file
+                .tensor(&names::t0_index(g))
+                .unwrap()
+                .as_u16()
+                .unwrap()
+                .to_vec();
+            let cv = file
+                .tensor(&names::t0_value(g))
+                .unwrap()
+                .to_f32_vec()
+                .unwrap();
+            assert_eq!(
+                file.tensor(&names::t0_index(g)).unwrap().shape()[2],
+                k,
+                "the file's shape says K"
+            );
             assert_eq!((ci.len(), cv.len()), (rows * k, rows * k));
             for r in 0..rows {
                 let kept: Vec<(u16, f32)> = (0..k)
@@ -250,7 +235,7 @@ fn compressed_groups_keep_the_fewest_t0_terms_meeting_their_target() {
                     .filter(|&(_, v)| v != 0.0)
                     .collect();
                 let mut largest: Vec<(u16, f32)> = (0..64)
-                    .map(|t| (d.t0_index[r * 64 + t], value[r * 64 + t]))
+                    .map(|t| (index[r * 64 + t], value[r * 64 + t]))
                     .filter(|&(_, v)| v != 0.0)
                     .collect();
                 largest.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()).then(a.0.cmp(&b.0)));
@@ -258,26 +243,6 @@ fn compressed_groups_keep_the_fewest_t0_terms_meeting_their_target() {
                 largest.sort_by_key(|&(i, _)| i);
                 assert_eq!(kept, largest, "target {target}, group {g}, row {r}");
             }
-        }
-        // The file says so and reads back.
-        let path = std::env::temp_dir().join(format!(
-            "prt-vertex-t0-choice-{}-{target}.prtbake",
-            std::process::id()
-        ));
-        write_vertex_file(&compressed, &path).unwrap();
-        let file = prt_formats::BakeFile::open(&path).unwrap();
-        std::fs::remove_file(&path).ok();
-        let meta: prt_formats::vertex::VertexBakeMeta =
-            serde_json::from_value(file.metadata().clone()).unwrap();
-        meta.validate().unwrap();
-        for (g, gm) in meta.groups.iter().enumerate() {
-            let k = gm.t0_terms.unwrap() as usize;
-            let shape = file
-                .tensor(&prt_formats::vertex::names::t0_index(g))
-                .unwrap()
-                .shape()
-                .to_vec();
-            assert_eq!(shape[2], k);
         }
     }
     assert!(cut_somewhere, "no target cut any T0 terms");

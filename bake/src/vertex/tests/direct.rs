@@ -203,7 +203,7 @@ fn glossy_t0_rows_are_the_shading_basis_in_the_vertex_frame() {
         }
     });
     // Without the basis the bake refuses, naming the material and family.
-    let e = bake_vertex(&scene, &[], &[], &opts, None)
+    let e = bake_bytes(&scene, &[], &opts, "no-basis")
         .err()
         .unwrap()
         .to_string();

@@ -116,10 +116,85 @@ pub(super) fn with_tracer<R>(
     let accel = Accel::build(scene);
     let lights = LightSet::new(scene);
     let integ = Integrator::new(scene, &accel, &lights, opts.reflections as usize, 1, 1);
-    let plan = VertexPlan::new(&integ, slots, opts, None).unwrap();
+    let plan = VertexPlan::new(&integ, slots, opts, units_in_place(scene), None).unwrap();
     let layout = plan.layout(&[]).unwrap();
     let tracer = VertexTracer::new(&integ, &plan, &layout, shading, opts).unwrap();
     f(&tracer, &plan, &integ)
+}
+
+/// Runs `f` with a tracer of `scene`'s plan made of `units`.
+pub(super) fn with_tracer_units<R>(
+    scene: &Scene,
+    units: Vec<Unit>,
+    opts: &VertexBakeOptions,
+    f: impl FnOnce(&VertexTracer, &VertexPlan) -> R,
+) -> R {
+    let slots = SlotPlan::per_unit_radiance(scene, &[]).unwrap();
+    let accel = Accel::build(scene);
+    let lights = LightSet::new(scene);
+    let integ = Integrator::new(scene, &accel, &lights, opts.reflections as usize, 1, 1);
+    let plan = VertexPlan::new(&integ, slots, opts, units, None).unwrap();
+    let layout = plan.layout(&[]).unwrap();
+    let tracer = VertexTracer::new(&integ, &plan, &layout, &[], opts).unwrap();
+    f(&tracer, &plan)
+}
+
+/// Units over `scene`'s vertices as they are (not welded or reordered, so tests keep their
+/// vertex indices): each group's vertices in order, cut every 256, halves and quarters by
+/// index. The groups must be contiguous, as `SceneBuilder` makes them mesh by mesh.
+pub(super) fn units_in_place(scene: &Scene) -> Vec<Unit> {
+    let mut members: Vec<Vec<u32>> = vec![Vec::new(); scene.materials.len()];
+    for (v, m) in vertex_materials(scene).iter().enumerate() {
+        if let Some(m) = m {
+            members[*m as usize].push(v as u32);
+        }
+    }
+    let mut out = Vec::new();
+    for (g, vs) in members.iter().filter(|m| !m.is_empty()).enumerate() {
+        for chunk in vs.chunks(UNIT_VERTICES) {
+            let n = chunk.len();
+            let half = n / 2;
+            out.push(Unit {
+                group: g,
+                vertices: chunk.to_vec(),
+                half,
+                quarters: [half / 2, half, half + (n - half) / 2, n],
+            });
+        }
+    }
+    out
+}
+
+/// A scratch path for a bake file of this test process.
+pub(super) fn scratch_file(name: &str) -> std::path::PathBuf {
+    std::env::temp_dir().join(format!("prt-vertex-{name}-{}.prtbake", std::process::id()))
+}
+
+/// Bakes `scene` into a scratch file and returns what the bake said and the file's bytes.
+pub(super) fn bake_bytes(
+    scene: &Scene,
+    shading: &[ShadingBasis],
+    opts: &VertexBakeOptions,
+    name: &str,
+) -> Result<(VertexBakeResult, Vec<u8>), VertexError> {
+    let path = scratch_file(name);
+    let r = bake_vertex(scene, &[], shading, opts, &path, None)?;
+    let bytes = std::fs::read(&path).expect("the bake file");
+    std::fs::remove_file(&path).ok();
+    Ok((r, bytes))
+}
+
+/// Bakes `scene` into a scratch file and opens it.
+pub(super) fn bake_file(
+    scene: &Scene,
+    opts: &VertexBakeOptions,
+    name: &str,
+) -> (VertexBakeResult, prt_formats::BakeFile) {
+    let path = scratch_file(name);
+    let r = bake_vertex(scene, &[], &[], opts, &path, None).expect("bake");
+    let f = prt_formats::BakeFile::open(&path).expect("open");
+    std::fs::remove_file(&path).ok();
+    (r, f)
 }
 
 /// Texel directions (f32, as traced) and exact solid angles of the direct cube.

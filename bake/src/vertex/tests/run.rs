@@ -7,7 +7,6 @@ use glam::Vec3;
 use super::*;
 use prt_formats::clustered::CompressionSettings;
 use prt_formats::vertex::{names, VertexBakeMeta};
-use prt_formats::BakeFile;
 
 use crate::progress::Progress;
 use crate::scene::PunctualLight;
@@ -25,16 +24,18 @@ fn the_file_does_not_depend_on_the_thread_count() {
             .build()
             .unwrap();
         pool.install(|| {
-            let bake = bake_vertex(&scene, &[], &[], &opts, None).unwrap();
-            vertex_file_bytes(&bake).unwrap()
+            bake_bytes(&scene, &[], &opts, &format!("threads{threads}"))
+                .unwrap()
+                .1
         })
     };
     let one = bytes(1);
     assert!(one == bytes(2), "1 and 2 threads give different files");
 }
 
-/// With compression on, the clusters and T0 terms are chosen per group (three cluster sizes
-/// tried on the 642-vertex ball): the choice must not depend on the thread count either.
+/// With compression on, the clusters are chosen per unit and the T0 terms per group (the
+/// 642-vertex ball makes several units): the choice must not depend on the thread count
+/// either.
 #[test]
 fn the_compressed_file_does_not_depend_on_the_thread_count() {
     let mut b = SceneBuilder::new();
@@ -66,9 +67,9 @@ fn the_compressed_file_does_not_depend_on_the_thread_count() {
             .build()
             .unwrap();
         pool.install(|| {
-            let bake = bake_vertex(&scene, &[], &[], &opts, None).unwrap();
-            assert!(bake.meta.groups.iter().all(|g| g.t0_terms.is_some()));
-            vertex_file_bytes(&bake).unwrap()
+            let (r, bytes) = bake_bytes(&scene, &[], &opts, &format!("cthreads{threads}")).unwrap();
+            assert!(r.meta.groups.iter().all(|g| g.t0_terms.is_some()));
+            bytes
         })
     };
     let one = bytes(1);
@@ -86,7 +87,7 @@ fn refusals_name_the_problem() {
         position: Vec3::Y,
         intensity: Vec3::ONE,
     });
-    let e = bake_vertex(&lit, &[], &[], &opts, None)
+    let e = bake_bytes(&lit, &[], &opts, "lit")
         .err()
         .unwrap()
         .to_string();
@@ -111,7 +112,7 @@ fn refusals_name_the_problem() {
         ],
         lamp,
     );
-    let e = bake_vertex(&b.build(), &[], &[], &opts, None)
+    let e = bake_bytes(&b.build(), &[], &opts, "lamp")
         .err()
         .unwrap()
         .to_string();
@@ -122,7 +123,7 @@ fn refusals_name_the_problem() {
             reflections,
             ..opts.clone()
         };
-        let e = bake_vertex(&open_plane(), &[], &[], &o, None)
+        let e = bake_bytes(&open_plane(), &[], &o, "reflections")
             .err()
             .unwrap()
             .to_string();
@@ -198,12 +199,8 @@ fn the_file_holds_the_schema() {
         t0_terms: 40,
         ..Default::default()
     };
-    let bake = bake_vertex(&scene, &[], &[], &opts, None).unwrap();
-    let path = std::env::temp_dir().join(format!("prt-vertex-file-{}.prtbake", std::process::id()));
-    let size = write_vertex_file(&bake, &path).unwrap();
-    let file = BakeFile::open(&path).unwrap();
-    std::fs::remove_file(&path).ok();
-    assert_eq!(size, file.file_bytes().len() as u64);
+    let (bake, file) = bake_file(&scene, &opts, "schema");
+    assert_eq!(bake.file_bytes, file.file_bytes().len() as u64);
     let meta: VertexBakeMeta = serde_json::from_value(file.metadata().clone()).unwrap();
     meta.validate().unwrap();
     assert_eq!(meta, bake.meta);
@@ -212,20 +209,46 @@ fn the_file_holds_the_schema() {
     let shape = |name: &str| file.tensor(name).unwrap().shape().to_vec();
     assert_eq!(shape(names::POSITIONS), vec![46, 3]);
     assert_eq!(shape(names::TRIANGLES), vec![82, 3]);
-    for (g, gm) in meta.groups.iter().enumerate() {
-        let v = gm.vertices as usize;
-        assert_eq!(shape(&names::t0_index(g)), vec![v, 1, 40]);
-        // Diffuse groups (no lobe) store no visibility.
-        assert_eq!(shape(&names::visibility(g)), vec![v, 0]);
-        assert_eq!(shape(&names::t1(g)), vec![v, 384, 1, 16, 1]);
-        assert_eq!(shape(&names::t2(g)), vec![v, 24, 1, 2, 1]);
-        // f16 with the group's scale: the largest stored magnitude is 2^14.
-        let t1 = file.tensor(&names::t1(g)).unwrap().to_f32_vec().unwrap();
-        let max = t1.iter().fold(0.0f32, |m, x| m.max(x.abs()));
-        assert_eq!(max, 16384.0);
-        let dense = bake.groups[g].t1.to_f32();
-        assert_eq!(dense, t1);
-    }
+    // The prepared scene, traced directly: the file holds its vertices' T1, placed in order.
+    let prepared = prepare_scene(&scene);
+    let integ_scene = &prepared.scene;
+    let mut first = 0usize;
+    with_tracer_units(
+        integ_scene,
+        prepared.units.clone(),
+        &opts,
+        |tracer, plan| {
+            for (g, gm) in meta.groups.iter().enumerate() {
+                let v = gm.vertices as usize;
+                assert_eq!(shape(&names::t0_index(g)), vec![v, 1, 40]);
+                // Diffuse groups (no lobe) store no visibility.
+                assert_eq!(shape(&names::visibility(g)), vec![v, 0]);
+                assert_eq!(shape(&names::t1(g)), vec![v, 384, 1, 16, 1]);
+                assert_eq!(shape(&names::t2(g)), vec![v, 24, 1, 2, 1]);
+                let ids = file
+                    .tensor(&names::vertices(g))
+                    .unwrap()
+                    .as_u32()
+                    .unwrap()
+                    .to_vec();
+                assert_eq!(ids, (first as u32..(first + v) as u32).collect::<Vec<_>>());
+                // f16 with the group's scale: the largest stored magnitude is 2^14.
+                let t1 = file.tensor(&names::t1(g)).unwrap().to_f32_vec().unwrap();
+                let max = t1.iter().fold(0.0f32, |m, x| m.max(x.abs()));
+                assert_eq!(max, 16384.0);
+                // The last vertex of the group, traced again, is its last row times the scale.
+                let last = plan.groups[g].vertices[v - 1];
+                assert_eq!(last as usize, first + v - 1);
+                let traced = tracer.trace(last).unwrap().t1;
+                let row = &t1[(v - 1) * traced.len()..v * traced.len()];
+                let top = traced.iter().fold(0.0f32, |m, x| m.max(x.abs()));
+                for (a, b) in traced.iter().zip(row) {
+                    assert!((a - b * gm.scale_t1).abs() <= 1e-3 * top, "{a} vs {b}");
+                }
+                first += v;
+            }
+        },
+    );
     assert!(meta.stats.rays > 0 && meta.stats.t0_truncation_error.len() == 2);
     assert!(meta
         .stats
