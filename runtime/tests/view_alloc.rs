@@ -8,7 +8,7 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use prt_formats::pixel::Precision;
 use prt_formats::Family;
-use prt_runtime::vertex::VertexRelighter;
+use prt_runtime::VertexRelighter;
 
 #[allow(dead_code)]
 #[path = "vertex/common.rs"]
@@ -106,14 +106,14 @@ fn a_view_only_frame_allocates_nothing() {
     let mut out = vec![0.0f32; 3 * (w * h) as usize];
     // The first frames run the light and material stages and size the buffers.
     for cam in &cams {
-        r.render(cam, w, h, &mut out).expect("render");
+        frame(&mut r, cam, w, h, &mut out).expect("render");
     }
     let lit = out.iter().filter(|&&v| v > 0.0).count();
     assert!(lit > out.len() / 2, "the frame is mostly black: {lit} lit");
     COUNTING.store(true, Ordering::SeqCst);
     for _ in 0..3 {
         for cam in &cams {
-            r.render(cam, w, h, &mut out).expect("render");
+            frame(&mut r, cam, w, h, &mut out).expect("render");
         }
     }
     COUNTING.store(false, Ordering::SeqCst);

@@ -16,6 +16,7 @@ use prt_formats::vertex::{
 };
 use prt_formats::view::{CameraFrame, CameraSpec};
 use prt_formats::{BakeWriter, Family};
+use prt_runtime::{RenderStats, RuntimeError, VertexRelighter};
 
 /// A triangle mesh.
 #[derive(Clone, Debug, Default)]
@@ -710,16 +711,30 @@ pub fn asymmetric_map(width: usize, height: usize) -> Vec<f32> {
     out
 }
 
-/// Renders and returns the RGB image.
-pub fn render(
-    r: &mut prt_runtime::vertex::VertexRelighter,
+/// Renders the view of `cam` at `w` x `h` into `out`: the camera and size set, then the frame.
+pub fn frame(
+    r: &mut VertexRelighter,
     cam: &CameraFrame,
     w: u32,
     h: u32,
-) -> Vec<f32> {
+    out: &mut [f32],
+) -> Result<RenderStats, RuntimeError> {
+    r.set_size(w, h)?;
+    r.set_camera(*cam)?;
+    r.render_into(out)
+}
+
+/// Renders and returns the RGB image.
+pub fn render(r: &mut VertexRelighter, cam: &CameraFrame, w: u32, h: u32) -> Vec<f32> {
     let mut out = vec![0.0f32; 3 * (w * h) as usize];
-    r.render(cam, w, h, &mut out).expect("render");
+    frame(r, cam, w, h, &mut out).expect("render");
     out
+}
+
+/// One `--set` edit of material `name`, as `relight` makes it.
+pub fn set(r: &mut VertexRelighter, edit: &str) -> Result<(), RuntimeError> {
+    let o: prt_formats::MaterialOverride = edit.parse().expect("valid --set syntax");
+    r.set_params(&o.material, &[o.value])
 }
 
 /// Where pixel `(x, y)`'s ray meets the plane through the origin with normal `n`
@@ -732,8 +747,7 @@ pub fn hit_plane(
     y: u32,
     n: [f32; 3],
 ) -> Option<[f64; 3]> {
-    let rays = prt_runtime::raster::ViewRays::new(cam, w, h).expect("rays");
-    let d = rays.pixel_direction(x, y).map(f64::from);
+    let d = pixel_direction(cam, w, h, x, y).map(f64::from);
     let e = cam.position.map(f64::from);
     let n = n.map(f64::from);
     let dn = d[0] * n[0] + d[1] * n[1] + d[2] * n[2];
@@ -743,4 +757,19 @@ pub fn hit_plane(
     }
     let t = -en / dn;
     (t > 0.0).then(|| std::array::from_fn(|i| e[i] + t * d[i]))
+}
+
+/// The unit view direction through the centre of pixel `(x, y)`, by the film formula of
+/// docs/conventions.md ("Camera"), in f64 and then rounded to f32 as the runtime's is.
+pub fn pixel_direction(cam: &CameraFrame, w: u32, h: u32, x: u32, y: u32) -> [f32; 3] {
+    let (fx, fy) = (f64::from(x) + 0.5, f64::from(y) + 0.5);
+    let (w, h) = (f64::from(w), f64::from(h));
+    let t = (f64::from(cam.yfov) * 0.5).tan();
+    let sx = (2.0 * fx / w - 1.0) * t * (w / h);
+    let sy = (1.0 - 2.0 * fy / h) * t;
+    let d: [f64; 3] = std::array::from_fn(|i| {
+        f64::from(cam.forward[i]) + f64::from(cam.right[i]) * sx + f64::from(cam.up[i]) * sy
+    });
+    let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    d.map(|c| (c / len) as f32)
 }
