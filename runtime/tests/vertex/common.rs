@@ -773,3 +773,40 @@ pub fn pixel_direction(cam: &CameraFrame, w: u32, h: u32, x: u32, y: u32) -> [f3
     let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
     d.map(|c| (c / len) as f32)
 }
+
+/// A 12 x 12 glossy, textured grid (f16) under an asymmetric lat-long environment: the view
+/// stage's lobe, texture, visibility and background paths.
+pub fn glossy_grid() -> Bake {
+    let up = [0.0, 1.0, 0.0];
+    let basis = constant_basis(0.06, [0.2, 0.1, 0.05, 0.05], true);
+    let mesh = Mesh::grid(12, up, 0);
+    let nv = mesh.positions.len();
+    let row = t0_rows(up, Some(&basis));
+    let rows: Vec<_> = (0..nv).map(|_| row.clone()).collect();
+    let mut g = Group::new((0..nv as u32).collect(), &rows, 3, 2, 1);
+    for (k, x) in g.t1.iter_mut().chain(g.t2.iter_mut()).enumerate() {
+        *x = 0.01 * (k % 5) as f32;
+    }
+    for (k, v) in g.visibility.iter_mut().enumerate() {
+        *v = ((k * 7) % 256) as u8;
+    }
+    // The second material has no triangles; it gives the group the slot count of the
+    // vertex tests' busy bake.
+    let materials = vec![
+        material("metal", Family::Ggx, [0.3, 0.4, 0.2], [0.8, 0.6, 0.4], 0.3),
+        material("wall", Family::Diffuse, [0.6, 0.2, 0.2], [0.0; 3], 0.0),
+    ];
+    let mut bake = Bake::new(
+        mesh,
+        materials,
+        vec![(0, g, Some(0))],
+        vec![basis],
+        [1.0; 3],
+    );
+    bake.meta.precision = Precision::F16;
+    bake.meta.reflections = 3;
+    bake.set_latlong(64, 32, asymmetric_map(64, 32), 10.0);
+    let texels = (0..8 * 8 * 3).map(|k| 0.2 + 0.1 * (k % 7) as f32).collect();
+    bake.set_texture(0, 8, 8, texels);
+    bake
+}

@@ -4,42 +4,16 @@
 //! light the scene as they say.
 
 use prt_formats::pixel::Precision;
-use prt_formats::Family;
 use prt_runtime::{BakeKind, LatLongMap, Relighter, RuntimeError, DEFAULT_IMAGE_SIDE};
 
 use crate::common::*;
 use crate::pixel_synthetic::Synthetic;
 
-/// A glossy, textured 12 x 12 grid under an asymmetric map (dense, or compressed as exact
-/// identity factors): the view stage's lobe, texture, visibility and background paths.
+/// The glossy, textured grid in f32, dense or compressed as exact identity factors.
 fn bake(path: &std::path::Path, compressed: bool) {
-    let up = [0.0, 1.0, 0.0];
-    let basis = constant_basis(0.06, [0.2, 0.1, 0.05, 0.05], true);
-    let mesh = Mesh::grid(12, up, 0);
-    let nv = mesh.positions.len();
-    let row = t0_rows(up, Some(&basis));
-    let rows: Vec<_> = (0..nv).map(|_| row.clone()).collect();
-    let mut g = Group::new((0..nv as u32).collect(), &rows, 3, 2, 1);
-    for (k, x) in g.t1.iter_mut().chain(g.t2.iter_mut()).enumerate() {
-        *x = 0.01 * (k % 5) as f32;
-    }
-    let materials = vec![
-        material("metal", Family::Ggx, [0.3, 0.4, 0.2], [0.8, 0.6, 0.4], 0.3),
-        material("wall", Family::Diffuse, [0.6, 0.2, 0.2], [0.0; 3], 0.0),
-    ];
-    let mut bake = Bake::new(
-        mesh,
-        materials,
-        vec![(0, g, Some(0))],
-        vec![basis],
-        [1.0; 3],
-    );
+    let mut bake = glossy_grid();
     bake.meta.precision = Precision::F32;
-    bake.meta.reflections = 3;
     bake.compress_as_identity = compressed;
-    bake.set_latlong(64, 32, asymmetric_map(64, 32), 10.0);
-    let texels = (0..8 * 8 * 3).map(|k| 0.2 + 0.1 * (k % 7) as f32).collect();
-    bake.set_texture(0, 8, 8, texels);
     bake.write(path);
 }
 
