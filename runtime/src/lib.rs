@@ -62,15 +62,23 @@ pub use materials::{MaterialInfo, ParamInfo, ParamRange};
 pub use pixel::{PixelRelighter, Variant};
 pub use vertex::{RasterError, VertexRelighter, DEFAULT_IMAGE_SIDE};
 
-// The types the face's signatures (and its errors) use, so a caller can name them without
+// The types the face's signatures (and its errors) use, and `CameraSpec`, which makes a
+// `CameraFrame` from an eye, a target and a field of view, so a caller can name them without
 // depending on `prt-formats` itself.
 pub use prt_formats::envmap::{EnvMapError, EnvMapReport, LatLongMap};
 pub use prt_formats::lighting::LightingError;
 pub use prt_formats::overrides::{OverrideValue, Param};
 pub use prt_formats::pixel::MaterialParams;
 pub use prt_formats::vertex::BakeKind;
-pub use prt_formats::view::CameraFrame;
+pub use prt_formats::view::{CameraFrame, CameraSpec};
 pub use prt_formats::{BakeFile, Family, FormatError};
+
+// A relighter moves between threads: the Python binding renders with the interpreter's lock
+// released, and a server renders on a worker thread.
+const _: () = {
+    const fn sendable<T: Send>() {}
+    sendable::<Relighter>();
+};
 
 /// Opens a bake file of either kind (checksums verified) and validates it as that kind: see
 /// [`Relighter::open`].
