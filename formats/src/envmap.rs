@@ -1,6 +1,6 @@
-//! Lat-long environment maps: loading them from OpenEXR or Radiance HDR files, and checking
-//! maps handed over in memory. Shared by the baker (its scene's environment) and the runtime
-//! (`relight --env`), so both accept and refuse the same maps.
+//! Lat-long environment maps: loading them from OpenEXR or Radiance HDR files (feature
+//! `image-io`), and checking maps handed over in memory. Shared by the baker (its scene's
+//! environment) and the runtime (`relight --env`), so both accept and refuse the same maps.
 //!
 //! Both formats store the top image row first, the convention of [`crate::latlong`]: row 0
 //! looks at +Y (up). Both hold linear radiance, so no colour transform is applied; the texels
@@ -12,6 +12,7 @@
 //! around bright spots and leaves small negative values next to them; radiance cannot be
 //! negative, and the callers warn with the count.
 
+#[cfg(feature = "image-io")]
 use std::path::Path;
 
 /// Larger maps are refused: 32K x 16K RGB f32 is already 6 GiB.
@@ -96,15 +97,18 @@ pub enum EnvMapError {
     #[error("not a Radiance HDR file")]
     NotHdr,
     /// The Radiance HDR header is malformed.
+    #[cfg(feature = "image-io")]
     #[error("cannot read Radiance HDR header: {0}")]
     HdrHeader(#[source] image::ImageError),
     /// The Radiance HDR pixels are malformed.
+    #[cfg(feature = "image-io")]
     #[error("cannot decode Radiance HDR: {0}")]
     HdrDecode(#[source] image::ImageError),
 }
 
 /// Loads `path` (.exr or .hdr, by extension) scaled by `intensity`, and checks it as
 /// [`LatLongMap::new`] does. Errors do not repeat the file name; the caller adds it.
+#[cfg(feature = "image-io")]
 pub fn load_latlong(
     path: &Path,
     intensity: f32,
@@ -183,10 +187,12 @@ impl LatLongMap {
     }
 }
 
+#[cfg(feature = "image-io")]
 type Pixels = (usize, usize, Vec<[f32; 3]>);
 
 /// Reads the first RGB(A) layer through [`crate::read_exr_rgb`], after checking the header's
 /// sizes (so a corrupt or hostile header cannot make us allocate gigabytes).
+#[cfg(feature = "image-io")]
 fn read_exr(path: &Path) -> Result<Pixels, EnvMapError> {
     use crate::ImageIoError;
     let exr_err = |e: ImageIoError| EnvMapError::Exr {
@@ -213,6 +219,7 @@ fn read_exr(path: &Path) -> Result<Pixels, EnvMapError> {
     crate::read_exr_rgb(path).map_err(exr_err)
 }
 
+#[cfg(feature = "image-io")]
 fn read_hdr(path: &Path) -> Result<Pixels, EnvMapError> {
     let open = || -> Result<_, EnvMapError> {
         image::ImageReader::open(path)

@@ -4,7 +4,9 @@
 //! * [`container`]: the bake file (safetensors layout, checksums, versioning, zero-copy reads).
 //! * [`envmap`]: loading and checking lat-long environment maps (EXR, HDR, in memory).
 //! * [`family`]: the BRDF families and which parameter fits which family.
-//! * [`image_io`]: EXR/PNG writing (atomic) and EXR reading.
+//! * [`image_io`]: EXR/PNG writing (atomic) and EXR reading (feature `image-io`, on by
+//!   default, as is loading environment maps from files; without it the crate links no image
+//!   codecs).
 //! * [`latlong`]: the lat-long (equirectangular) environment mapping, uv <-> direction.
 //! * [`lighting`]: the lighting bases of the per-vertex mode (cube maps, Haar wavelets,
 //!   spherical harmonics, the Gaussian prefilter).
@@ -22,6 +24,7 @@ pub mod clustered;
 pub mod container;
 pub mod envmap;
 pub mod family;
+#[cfg(feature = "image-io")]
 pub mod image_io;
 pub mod latlong;
 pub mod lighting;
@@ -36,6 +39,7 @@ pub use container::{
     TENSOR_ALIGN,
 };
 pub use family::Family;
+#[cfg(feature = "image-io")]
 pub use image_io::{read_exr_rgb, write_exr, write_image, write_png, ImageIoError};
 pub use overrides::{
     check_material, parse_override, MaterialOverride, OverrideError, OverrideValue, Param,

@@ -3,9 +3,10 @@
 
 use prt_formats::envmap::EnvMapError;
 use prt_formats::lighting::LightingError;
+use prt_formats::overrides::Param;
 use prt_formats::FormatError;
 
-use crate::raster::RasterError;
+use crate::vertex::view::RasterError;
 
 /// Why a bake file could not be opened for relighting, or an edit or render was refused.
 #[derive(Debug, thiserror::Error)]
@@ -40,7 +41,7 @@ pub enum RuntimeError {
     },
     /// An edit sets a parameter the material's family does not have (e.g. `alpha` of a
     /// Blinn-Phong material).
-    #[error("material '{name}' is {family}: it has no parameter '{param}'")]
+    #[error("material '{name}' is {family}: it has no parameter '{param}' (it has {params})")]
     WrongParam {
         /// The material name.
         name: String,
@@ -48,8 +49,25 @@ pub enum RuntimeError {
         family: String,
         /// The parameter given.
         param: String,
+        /// The parameters the family has, comma-separated.
+        params: String,
     },
-    /// [`Variant::Compressed`] was requested from a bake without a compressed variant.
+    /// An edit's value lies outside the parameter's accepted range (a colour channel negative
+    /// or not finite, a shininess or roughness outside its family's range).
+    #[error("material '{name}': {param} = {value} is outside its valid range [{min}, {max}]")]
+    OutOfRange {
+        /// The material name.
+        name: String,
+        /// The parameter.
+        param: Param,
+        /// The value given, as text (a colour as `[r, g, b]`).
+        value: String,
+        /// The smallest value accepted (for a colour: per channel).
+        min: f32,
+        /// The largest value accepted (a colour's is infinite: any finite value).
+        max: f32,
+    },
+    /// [`crate::Variant::Compressed`] was requested from a bake without a compressed variant.
     #[error("this bake file has no compressed variant (bake with a compression rank)")]
     NoCompressed,
     /// The file is a bake of the other kind (per-pixel opened as per-vertex, or the reverse).
@@ -64,6 +82,15 @@ pub enum RuntimeError {
         /// What to use instead.
         hint: &'static str,
     },
+    /// The file is a valid container whose metadata names neither bake kind.
+    #[error(
+        "{path}: a PRT container but not a bake of a known kind (its metadata has neither \
+         pixel_schema_version nor vertex_schema_version)"
+    )]
+    UnknownKind {
+        /// The file, as given.
+        path: String,
+    },
     /// The file is a valid container but not a consistent per-vertex bake (wrong schema
     /// version, metadata, tensor types or shapes, indices out of range); the reason names the
     /// tensor or field.
@@ -72,14 +99,6 @@ pub enum RuntimeError {
         /// The bake file, as given.
         path: String,
         /// What is inconsistent.
-        reason: String,
-    },
-    /// Parameters set programmatically are not usable (negative or non-finite).
-    #[error("material '{name}': {reason}")]
-    BadParams {
-        /// The material name.
-        name: String,
-        /// What is wrong.
         reason: String,
     },
     /// The image size or the camera cannot be rendered (zero or non-finite field of view,
@@ -104,16 +123,27 @@ pub enum RuntimeError {
         total: usize,
     },
     /// An environment map handed over in memory is unusable (empty, wrong texel count,
-    /// NaN or infinite texels, ...).
+    /// NaN or infinite texels, ...), or its intensity is negative or not finite.
     #[error("environment map: {0}")]
     Environment(#[from] EnvMapError),
+    /// An environment map file cannot be read or used.
+    #[error("environment map {path}: {source}")]
+    EnvironmentFile {
+        /// The file, as given.
+        path: String,
+        /// Why.
+        source: EnvMapError,
+    },
     /// The environment could not be turned into light coefficients (a non-finite rotation,
     /// a split width the prefilter refuses).
     #[error("environment: {0}")]
     Lighting(#[from] LightingError),
-    /// The output buffer does not hold `width * height` RGB pixels.
-    #[error("output buffer holds {got} floats; a {width}x{height} RGB image needs {expected}")]
-    OutputSize {
+    /// A caller's buffer (the image rendered into, an environment's texels) does not hold
+    /// `width * height` RGB pixels.
+    #[error("{what} holds {got} floats; a {width}x{height} RGB image needs {expected}")]
+    BufferSize {
+        /// Which buffer.
+        what: &'static str,
         /// Image width.
         width: u32,
         /// Image height.

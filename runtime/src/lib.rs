@@ -1,633 +1,196 @@
-//! PRT runtime: opens a bake file and produces images for any setting of the editable
-//! materials, without tracing a ray. It depends only on `prt-formats`, never on the baker.
+//! PRT runtime: opens a bake file and produces images for any setting of its editable
+//! materials (and, for a per-vertex bake, any environment, camera and image size), without
+//! tracing a ray. It depends only on `prt-formats`, never on the baker.
 //!
-//! - [`Relighter`]: a per-pixel bake (docs/pixel.md, "Storage and relighting"): camera and
-//!   light frozen into the file, materials edited.
-//! - [`vertex::VertexRelighter`]: a per-vertex bake (docs/vertex.md): environment, camera and
-//!   materials all edited.
+//! One way in for both kinds of bake: [`open`] reads the kind from the file and gives a
+//! [`Relighter`]; materials are listed, read and set the same way for both; a render writes a
+//! caller's flat buffer (`3 * width * height` floats, linear RGB, row-major, top row first)
+//! or returns an [`Image`]. What only one kind has (the per-vertex environment, camera and
+//! size; the per-pixel compressed variant) is reached by matching on the kind.
 //!
-//! Both take material edits by the same rules (`materials.rs`).
+//! ```no_run
+//! use prt_runtime::{OverrideValue, Relighter, RuntimeError};
 //!
-//! Relighting contracts each group's per-pixel transfer rows with weights built from the
-//! current slot coefficients ([`prt_formats::pixel::group_weights`]): uncompressed, one
-//! multiply-add per stored value and channel; compressed (PCA over pixels), the K components
-//! are contracted once per frame and each pixel costs K multiply-adds per channel.
+//! fn main() -> Result<(), RuntimeError> {
+//!     let mut r = prt_runtime::open("out/vitrine.prtbake")?;
+//!     for m in r.materials() {
+//!         println!("{} ({}): {:?}", m.name, m.family, m.params);
+//!     }
+//!     r.set_params("sphere", &[OverrideValue::Kd([0.8, 0.2, 0.2]), OverrideValue::Alpha(0.3)])?;
+//!     if let Relighter::Vertex(v) = &mut r {
+//!         v.load_environment("scenes/envmaps/studio.exr")?;
+//!         v.set_environment_rotation(90.0)?;
+//!         v.set_camera(v.default_camera().orbited(30.0))?;
+//!         v.set_size(800, 600)?;
+//!     }
+//!     let image = r.render()?; // an owned image
+//!     let (width, height) = r.size();
+//!     let mut frame = vec![0.0f32; 3 * width as usize * height as usize];
+//!     r.render_into(&mut frame)?; // the caller's memory, no copy
+//!     assert_eq!(image.pixels.as_flattened(), &frame[..]);
+//!     Ok(())
+//! }
+//! ```
 //!
-//! The per-vertex mode is built on [`light`] (an environment's light coefficients: cube map,
-//! Haar, coarse cubes, prefiltered cubes) and [`raster`] (the visibility buffer: triangle,
-//! perspective-correct barycentrics, distance per pixel centre).
+//! The two kinds (docs/design.md, "Inside `prt-runtime`"):
+//! - [`PixelRelighter`] (`pixel/`): camera and light frozen into the file, materials edited
+//!   (docs/pixel.md, "Storage and relighting").
+//! - [`VertexRelighter`] (`vertex/`): environment, camera and materials all edited
+//!   (docs/vertex.md).
+//!
+//! Both take material edits by the same rules (`materials.rs`) and render into the same image
+//! layout (`image.rs`). Cargo features: `image-io` (default) lets a per-vertex bake load an
+//! environment map from a file (EXR, HDR; without it `prt-formats` is linked without its
+//! image codecs); `hooks` adds the measurement and inspection hooks of [`hooks`] for
+//! `prt-bench` and the tests.
 
 #![warn(missing_docs)]
 
-mod contract;
 mod error;
-pub mod light;
+#[cfg(feature = "hooks")]
+pub mod hooks;
+mod image;
 mod materials;
-pub mod raster;
-mod tiled;
-pub mod vertex;
-
-pub use error::RuntimeError;
+mod pixel;
+mod vertex;
 
 use std::path::Path;
-use std::time::Instant;
 
-use half::f16;
-use prt_formats::overrides::MaterialOverride;
-use prt_formats::pixel::{group_weights, names, MaterialParams, PixelBakeMeta, Precision};
-use prt_formats::vertex::BakeKind;
-use prt_formats::{BakeFile, Dtype};
-use rayon::prelude::*;
+pub use error::RuntimeError;
+pub use image::{Image, RenderStats};
+pub use materials::{MaterialInfo, ParamInfo, ParamRange};
+pub use pixel::{PixelRelighter, Variant};
+pub use vertex::{RasterError, VertexRelighter, DEFAULT_IMAGE_SIDE};
 
-use contract::{add_run, stream_out, tiles_f16, tiles_f32, Column};
-use materials::Materials;
-use tiled::Tiled;
+// The types the face's signatures (and its errors) use, and `CameraSpec`, which makes a
+// `CameraFrame` from an eye, a target and a field of view, so a caller can name them without
+// depending on `prt-formats` itself.
+pub use prt_formats::envmap::{EnvMapError, EnvMapReport, LatLongMap};
+pub use prt_formats::lighting::LightingError;
+pub use prt_formats::overrides::{OverrideValue, Param};
+pub use prt_formats::pixel::MaterialParams;
+pub use prt_formats::vertex::BakeKind;
+pub use prt_formats::view::{CameraFrame, CameraSpec};
+pub use prt_formats::{BakeFile, Family, FormatError};
 
-/// Which representation to relight from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Variant {
-    /// The stored transfer rows (`g<k>.t`: f32, or f16 with a per-group scale).
-    Full,
-    /// The low-rank (PCA over pixels) approximation (`g<k>.mean`, `.components`, `.weights`),
-    /// present only when the bake was made with a compression rank.
-    Compressed,
+// A relighter moves between threads: the Python binding renders with the interpreter's lock
+// released, and a server renders on a worker thread.
+const _: () = {
+    const fn sendable<T: Send>() {}
+    sendable::<Relighter>();
+};
+
+/// Opens a bake file of either kind (checksums verified) and validates it as that kind: see
+/// [`Relighter::open`].
+pub fn open(path: impl AsRef<Path>) -> Result<Relighter, RuntimeError> {
+    Relighter::open(path)
 }
 
-/// Which inner loops [`Relighter::render`] runs. Both give bit-identical frames (the per-lane
-/// arithmetic is the same); the switch exists so tests and measurements can run the portable
-/// path on a CPU that has the vector instructions.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Kernel {
-    /// The fastest the CPU supports: AVX2 (and F16C for f16 bakes) on x86-64, else portable.
-    #[default]
-    Auto,
-    /// The portable scalar code, whatever the CPU.
-    Scalar,
-}
-
-/// A relit image and what it cost. The default is an empty frame, to render into.
-#[derive(Clone, Debug, Default)]
-pub struct Frame {
-    /// Image width in pixels.
-    pub width: u32,
-    /// Image height in pixels.
-    pub height: u32,
-    /// Row-major, top row first, linear RGB (`width * height` pixels).
-    pub pixels: Vec<[f32; 3]>,
-    /// Wall-clock time of [`Relighter::render`], in seconds.
-    pub seconds: f64,
-    /// Bytes of bake data read to make the frame.
-    pub bytes_read: u64,
-}
-
-/// The time of [`Relighter::time_reads`]: a frame's reads without its arithmetic.
-#[derive(Clone, Copy, Debug)]
-pub struct ReadPass {
-    /// Wall-clock time, in seconds.
-    pub seconds: f64,
-    /// Bytes of bake data read (the same count as the frame's [`Frame::bytes_read`]).
-    pub bytes_read: u64,
-}
-
-/// An opened bake file with the current material settings.
-pub struct Relighter {
-    file: BakeFile,
-    meta: PixelBakeMeta,
-    materials: Materials,
-    kernel: Kernel,
-    /// Per group, its pixel list as runs of consecutive image pixels, cut at band edges.
-    runs: Vec<GroupRuns>,
-    /// Per group, its stored values in the tiled layout the kernels read (`tiled.rs`).
-    values: Vec<GroupValues>,
-    /// The pixels whose stored emission is not +0 in every channel, as runs per band: a
-    /// frame reads only these (the others start from zero), so a scene whose camera sees
-    /// little emission does not read the whole emission image every frame.
-    emitting: GroupRuns,
-}
-
-/// One group's values as a frame reads them (copied from the file into tiles at open).
-struct GroupValues {
-    /// The stored transfer rows.
-    full: StoredValues,
-    /// The low-rank weights (`g<k>.weights`, one column per component), when present.
-    low_rank: Option<Tiled<f32>>,
-}
-
-/// A group's transfer rows in the precision they are stored in.
-enum StoredValues {
-    F32(Tiled<f32>),
-    F16(Tiled<f16>),
+/// An opened bake of either kind, with its current settings.
+///
+/// An enum rather than a trait both kinds implement: the kinds are a closed set (the bake
+/// file's own kind tag, [`BakeKind`]), so a caller holds one value without boxing, the shared
+/// calls are a `match` each, and what one kind alone has is reached by matching on the
+/// variant, with no downcast and no method that exists on one kind only to refuse.
+// A caller holds one per opened bake and does not move it around in bulk, so the variants'
+// different sizes cost nothing worth a box (which every match would then see).
+#[allow(clippy::large_enum_variant)]
+pub enum Relighter {
+    /// A per-pixel bake.
+    Pixel(PixelRelighter),
+    /// A per-vertex bake.
+    Vertex(VertexRelighter),
 }
 
 impl Relighter {
-    /// Opens and validates a per-pixel bake file (checksums verified). A per-vertex bake is
-    /// refused with [`RuntimeError::WrongKind`] (open it with [`vertex::VertexRelighter`]).
-    /// The transfer values (and low-rank weights) are copied into memory in the tiled layout
-    /// the frames read, which takes about their size in the file.
+    /// Opens a bake file (checksums verified) and validates it as the kind its metadata
+    /// names. A file that is no bake container is refused with [`RuntimeError::Format`] (the
+    /// reason names the file), a container of neither kind with
+    /// [`RuntimeError::UnknownKind`], an inconsistent bake with [`RuntimeError::Schema`] or
+    /// [`RuntimeError::VertexSchema`].
     pub fn open(path: impl AsRef<Path>) -> Result<Relighter, RuntimeError> {
         Relighter::from_file(BakeFile::open(path)?)
     }
 
-    /// Validates an opened bake file as a per-pixel bake (see [`Relighter::open`]).
+    /// Validates an opened bake file as the kind its metadata names (see
+    /// [`Relighter::open`]).
     pub fn from_file(file: BakeFile) -> Result<Relighter, RuntimeError> {
-        let path = file.path().to_path_buf();
-        let schema = |reason: String| RuntimeError::Schema {
-            path: path.display().to_string(),
-            reason,
-        };
-        if BakeKind::of_metadata(file.metadata()) == Some(BakeKind::Vertex) {
-            return Err(RuntimeError::WrongKind {
-                path: path.display().to_string(),
-                kind: BakeKind::Vertex.describe(),
-                expected: BakeKind::Pixel.describe(),
-                hint: "relight it with the per-vertex runtime (prt_runtime::vertex::\
-                       VertexRelighter; `relight` chooses it by itself and takes --env, \
-                       --camera and --width/--height)",
-            });
+        match BakeKind::of_metadata(file.metadata()) {
+            Some(BakeKind::Pixel) => Ok(Relighter::Pixel(PixelRelighter::from_file(file)?)),
+            Some(BakeKind::Vertex) => Ok(Relighter::Vertex(VertexRelighter::from_file(file)?)),
+            None => Err(RuntimeError::UnknownKind {
+                path: file.path().display().to_string(),
+            }),
         }
-        let meta: PixelBakeMeta = serde_json::from_value(file.metadata().clone())
-            .map_err(|e| schema(format!("metadata does not match the per-pixel schema: {e}")))?;
-        if meta.pixel_schema_version != prt_formats::pixel::PIXEL_SCHEMA_VERSION {
-            return Err(schema(format!(
-                "per-pixel schema version {} (this runtime reads {})",
-                meta.pixel_schema_version,
-                prt_formats::pixel::PIXEL_SCHEMA_VERSION
-            )));
-        }
-        // The contraction weights are laid out for gray (1) or RGB (3) values only.
-        if !matches!(meta.channels, 1 | 3) {
-            return Err(schema(format!(
-                "{} channels per value (1 or 3 expected)",
-                meta.channels
-            )));
-        }
-        let materials = Materials::new(&meta.materials, &meta.bases).map_err(schema)?;
-        let nslots: usize = meta.materials.iter().map(|m| m.slots.len()).sum();
-        let (w, h) = (meta.width as usize, meta.height as usize);
-        let emission = file.tensor(names::EMISSION)?;
-        emission.require_shape(&[h, w, 3])?;
-        // Bits, not values: a pixel starting from +0 instead of its stored emission must give
-        // the same bits, which -0 would not.
-        let emitting: Vec<u32> = emission
-            .as_f32()?
-            .chunks_exact(3)
-            .zip(0u32..)
-            .filter(|(e, _)| e.iter().any(|v| v.to_bits() != 0))
-            .map(|(_, i)| i)
-            .collect();
-        let emitting = GroupRuns::new(&emitting, w, h);
-        let mut runs = Vec::with_capacity(meta.groups.len());
-        let mut values = Vec::with_capacity(meta.groups.len());
-        for (g, gm) in meta.groups.iter().enumerate() {
-            let Some(m) = meta.materials.get(gm.material as usize) else {
-                return Err(schema(format!(
-                    "group {g} names material {} which does not exist",
-                    gm.material
-                )));
-            };
-            if gm.active.iter().any(|&j| j as usize >= nslots) {
-                return Err(schema(format!(
-                    "group {g} names a slot beyond the {nslots} slots"
-                )));
-            }
-            let expect = prt_formats::pixel::row_len(
-                m.slots.len(),
-                gm.active.len(),
-                meta.reflections as usize,
-                meta.channels as usize,
-            );
-            if expect != gm.row_len as usize {
-                return Err(schema(format!(
-                    "group {g}: row length {} but the layout gives {expect}",
-                    gm.row_len
-                )));
-            }
-            let p = gm.pixels as usize;
-            if p == 0 {
-                // The baker writes groups of visible materials only. An empty group would hold
-                // no data however long its row, while rendering allocates and walks the row.
-                return Err(schema(format!("group {g} has no pixels")));
-            }
-            let pix = file.tensor(&names::pixels(g))?;
-            pix.require_shape(&[p])?;
-            let indices = pix.as_u32()?;
-            if indices.iter().any(|&i| i as usize >= w * h) {
-                return Err(schema(format!(
-                    "group {g} has a pixel index outside the image"
-                )));
-            }
-            // Rendering takes each band's pixels as one run of the list.
-            if indices.windows(2).any(|ab| ab[0] >= ab[1]) {
-                return Err(schema(format!(
-                    "group {g}: pixel indices are not strictly ascending"
-                )));
-            }
-            runs.push(GroupRuns::new(indices, w, h));
-            let t = file.tensor(&names::transfer(g))?;
-            t.require_shape(&[expect, p])?;
-            let stored = match meta.precision {
-                Precision::F32 => Dtype::F32,
-                Precision::F16 => Dtype::F16,
-            };
-            if t.dtype() != stored {
-                return Err(schema(format!(
-                    "group {g}: transfer tensor is {} but the metadata says {}",
-                    t.dtype(),
-                    meta.precision.name()
-                )));
-            }
-            let full = match stored {
-                Dtype::F16 => StoredValues::F16(Tiled::from_element_major(t.as_f16()?, expect, p)),
-                _ => StoredValues::F32(Tiled::from_element_major(t.as_f32()?, expect, p)),
-            };
-            let mut low_rank = None;
-            if let Some(k) = gm.compressed_rank {
-                let k = k as usize;
-                file.tensor(&names::mean(g))?.require_shape(&[expect])?;
-                file.tensor(&names::components(g))?
-                    .require_shape(&[k, expect])?;
-                let z = file.tensor(&names::weights(g))?;
-                z.require_shape(&[k, p])?;
-                low_rank = Some(Tiled::from_element_major(z.as_f32()?, k, p));
-            }
-            values.push(GroupValues { full, low_rank });
-        }
-        Ok(Relighter {
-            file,
-            meta,
-            materials,
-            kernel: Kernel::Auto,
-            runs,
-            values,
-            emitting,
-        })
     }
 
-    /// Chooses the inner loops of [`Relighter::render`] (default [`Kernel::Auto`]); the frames
-    /// are the same bit for bit, only the speed differs.
-    pub fn set_kernel(&mut self, kernel: Kernel) {
-        self.kernel = kernel;
-    }
-
-    /// The bake's per-pixel metadata (camera, materials, slots, groups).
-    pub fn meta(&self) -> &PixelBakeMeta {
-        &self.meta
-    }
-
-    /// Image width in pixels.
-    pub fn width(&self) -> u32 {
-        self.meta.width
-    }
-
-    /// Image height in pixels.
-    pub fn height(&self) -> u32 {
-        self.meta.height
-    }
-
-    /// Whether [`Variant::Compressed`] can be rendered (every group has a low-rank variant).
-    pub fn has_compressed(&self) -> bool {
-        !self.meta.groups.is_empty() && self.meta.groups.iter().all(|g| g.compressed_rank.is_some())
-    }
-
-    /// Current parameters of material `name`.
-    pub fn params(&self, name: &str) -> Result<MaterialParams, RuntimeError> {
-        self.materials.params(name)
-    }
-
-    /// Applies one `--set MATERIAL.PARAM=VALUE` edit (values already range-checked by the
-    /// parser; shininess/alpha outside the basis' sampled range are clamped by it).
-    pub fn apply(&mut self, o: &MaterialOverride) -> Result<(), RuntimeError> {
-        self.materials.apply(o)
-    }
-
-    /// RGB coefficient of every global slot for the current parameters, and whether any
-    /// parameter lay outside its basis' sampled range (and was clamped).
-    pub fn coefficients(&self) -> (Vec<[f32; 3]>, bool) {
-        self.materials.coefficients()
-    }
-
-    /// Relights the image for the current parameters.
-    ///
-    /// The image is cut into bands of rows processed in parallel; each band contracts, for
-    /// every group, the rows of its own pixels (groups store pixels in ascending order) and
-    /// adds them into its part of the image, so no thread writes another's pixels. To render
-    /// many frames, use [`Relighter::render_into`], which reuses the frame's memory.
-    pub fn render(&self, variant: Variant) -> Result<Frame, RuntimeError> {
-        let mut frame = Frame::default();
-        self.render_into(variant, &mut frame)?;
-        Ok(frame)
-    }
-
-    /// [`Relighter::render`] into `frame`, whose contents are replaced and whose pixel memory
-    /// is reused: an image the size of the last one is overwritten in place, never cleared
-    /// first (every pixel starts from its emission), which saves a pass over the image per
-    /// frame. On error `frame` is left as it was.
-    pub fn render_into(&self, variant: Variant, frame: &mut Frame) -> Result<(), RuntimeError> {
-        self.frame::<false>(variant, frame)
-    }
-
-    /// What a frame's memory traffic alone costs: reads every stored value that
-    /// [`Relighter::render`] reads, in the same order and with the same prefetches, copies the
-    /// emission and adds into the image as it does, but sums the values unweighted instead of
-    /// contracting them with the weights (one add per eight values instead of six multiplies
-    /// and adds). `bench pixel` times it beside the frames, to tell what bounds a frame: the
-    /// memory system serving this access pattern, or the arithmetic. `scratch` is reused
-    /// between calls; what it holds afterwards is not an image of anything.
-    pub fn time_reads(
-        &self,
-        variant: Variant,
-        scratch: &mut Vec<[f32; 3]>,
-    ) -> Result<ReadPass, RuntimeError> {
-        let mut frame = Frame {
-            pixels: std::mem::take(scratch),
-            ..Frame::default()
-        };
-        let done = self.frame::<true>(variant, &mut frame);
-        *scratch = frame.pixels;
-        done?;
-        Ok(ReadPass {
-            seconds: frame.seconds,
-            bytes_read: frame.bytes_read,
-        })
-    }
-
-    /// [`Relighter::render_into`], or with `READS_ONLY` the traffic of one
-    /// ([`Relighter::time_reads`]).
-    fn frame<const READS_ONLY: bool>(
-        &self,
-        variant: Variant,
-        frame: &mut Frame,
-    ) -> Result<(), RuntimeError> {
-        if variant == Variant::Compressed && !self.has_compressed() {
-            return Err(RuntimeError::NoCompressed);
-        }
-        let start = Instant::now();
-        let (coeff, _) = self.coefficients();
-        let reflections = self.meta.reflections as usize;
-        let channels = self.meta.channels as usize;
-        let emission = self.file.tensor(names::EMISSION)?.as_f32()?;
-        let mut bytes_read = (self.emitting.pixels() * 3 * 4) as u64;
-        let mut groups = Vec::with_capacity(self.meta.groups.len());
-        for (g, gm) in self.meta.groups.iter().enumerate() {
-            let m = &self.meta.materials[gm.material as usize];
-            let w = group_weights(gm, m, &coeff, reflections, channels, self.meta.tint);
-            let len = gm.row_len as usize;
-            // The pixel list itself is not read: its runs were found at open.
-            let np = gm.pixels as usize;
-            let stored = &self.values[g];
-            let columns = match variant {
-                Variant::Full => {
-                    // Only the columns with a nonzero weight are read.
-                    let (columns, read) = match &stored.full {
-                        StoredValues::F16(values) => {
-                            let cols = element_columns(&w, gm.scale);
-                            let read = cols.len() * np * 2;
-                            (Columns::F16(values, cols), read)
-                        }
-                        StoredValues::F32(values) => {
-                            let cols = element_columns(&w, 1.0);
-                            let read = cols.len() * np * 4;
-                            (Columns::F32(values, cols, [0.0; 3]), read)
-                        }
-                    };
-                    bytes_read += read as u64;
-                    columns
-                }
-                Variant::Compressed => {
-                    let (Some(z), Some(k)) = (&stored.low_rank, gm.compressed_rank) else {
-                        return Err(RuntimeError::NoCompressed);
-                    };
-                    let k = k as usize;
-                    let mean = self.file.tensor(&names::mean(g))?.as_f32()?;
-                    let comps = self.file.tensor(&names::components(g))?.as_f32()?;
-                    bytes_read += ((mean.len() + comps.len() + k * np) * 4) as u64;
-                    // Contract the mean and the K components once per frame; each pixel's
-                    // K weights are then its columns.
-                    let base = dot3(mean, &w, len);
-                    let cols = (0..k)
-                        .map(|r| (r, dot3(&comps[r * len..(r + 1) * len], &w, len)))
-                        .collect();
-                    Columns::F32(z, cols, base)
-                }
-            };
-            groups.push(columns);
-        }
-        let (width, height) = (self.meta.width as usize, self.meta.height as usize);
-        let pixels = &mut frame.pixels;
-        // Only a new size writes the image here; otherwise the bands overwrite it below.
-        pixels.resize(width * height, [0.0; 3]);
-        let simd = self.kernel == Kernel::Auto;
-        let band = band_pixels(width);
-        pixels
-            .par_chunks_mut(band)
-            .enumerate()
-            .for_each(|(b, out)| {
-                let lo = b * band;
-                let n = out.len();
-                SCRATCH.with_borrow_mut(|Scratch { image, acc }| {
-                    // The band is built in this thread's scratch (in cache from the band
-                    // before) and then streamed to the frame, so the frame's old contents are
-                    // never read: writing into the frame directly first fetched each of its
-                    // lines from memory (2-9 % of a frame, measured).
-                    // Each band starts from its own emission (in parallel, and while the band
-                    // is in cache: a serial copy of the whole image took 8 % of a frame, and a
-                    // parallel one before the bands 10-20 %), reading only the emitting pixels.
-                    image.clear();
-                    image.resize(3 * n, 0.0);
-                    for run in self.emitting.band(b) {
-                        let at = 3 * (run.pixel - lo);
-                        image[at..at + 3 * run.len]
-                            .copy_from_slice(&emission[3 * run.pixel..3 * (run.pixel + run.len)]);
-                    }
-                    let (img, _) = image.as_chunks_mut::<3>();
-                    for (g, gr) in groups.iter().zip(&self.runs) {
-                        let runs = gr.band(b);
-                        let (first, last) = match (runs.first(), runs.last()) {
-                            (Some(a), Some(z)) => (a.first, z.end()),
-                            _ => continue,
-                        };
-                        let mut r = 0;
-                        let mut i = first;
-                        while i < last {
-                            let end = (i + BLOCK).min(last);
-                            g.contract_block::<READS_ONLY>(i, end, simd, acc);
-                            // The block's pixels are a few runs of consecutive pixels (a
-                            // group's span in each row): each run's part in the block is
-                            // added as one stretch of the image, no index per pixel.
-                            while let Some(run) = runs.get(r).filter(|run| run.first < end) {
-                                let (from, to) = (run.first.max(i), run.end().min(end));
-                                let at = run.pixel + (from - run.first) - lo;
-                                add_run(&mut img[at..at + (to - from)], acc, from - i, simd);
-                                if run.end() > end {
-                                    break;
-                                }
-                                r += 1;
-                            }
-                            i = end;
-                        }
-                    }
-                    stream_out(out.as_flattened_mut(), image, simd);
-                });
-            });
-        debug_assert_eq!(pixels.len(), width * height);
-        frame.width = self.meta.width;
-        frame.height = self.meta.height;
-        frame.seconds = start.elapsed().as_secs_f64();
-        frame.bytes_read = bytes_read;
-        Ok(())
-    }
-}
-
-/// A stretch of a pixel list (a group's, or the emitting pixels) whose image pixels are
-/// consecutive.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-struct Run {
-    /// Index of its first pixel in the list.
-    first: usize,
-    /// Its first image pixel.
-    pixel: usize,
-    len: usize,
-}
-
-impl Run {
-    fn end(&self) -> usize {
-        self.first + self.len
-    }
-}
-
-/// A pixel list (a group's, or the emitting pixels) cut into [`Run`]s once, when the file is
-/// opened (finding a group's in every frame, by binary search over its list, took a tenth of a
-/// frame: the searches' loads missed the cache).
-#[derive(Debug)]
-struct GroupRuns {
-    runs: Vec<Run>,
-    /// Where each band's runs start in `runs` (one entry per band, then `runs.len()`).
-    band_starts: Vec<usize>,
-}
-
-impl GroupRuns {
-    /// The runs of the strictly ascending pixel indices `indices` of a `width` x `height`
-    /// image, cut at the bands' edges, so that no run crosses a band.
-    fn new(indices: &[u32], width: usize, height: usize) -> GroupRuns {
-        let band = band_pixels(width);
-        let mut runs = Vec::new();
-        let mut band_starts = Vec::with_capacity(height.div_ceil(BAND_ROWS) + 1);
-        let mut k = 0;
-        for b in 0..height.div_ceil(BAND_ROWS) {
-            band_starts.push(runs.len());
-            let end = k + indices[k..].partition_point(|&i| (i as usize) < (b + 1) * band);
-            while k < end {
-                let first = k;
-                k += 1;
-                while k < end && indices[k] == indices[k - 1] + 1 {
-                    k += 1;
-                }
-                runs.push(Run {
-                    first,
-                    pixel: indices[first] as usize,
-                    len: k - first,
-                });
-            }
-        }
-        band_starts.push(runs.len());
-        GroupRuns { runs, band_starts }
-    }
-
-    /// How many pixels the runs hold.
-    fn pixels(&self) -> usize {
-        self.runs.iter().map(|r| r.len).sum()
-    }
-
-    /// The runs of band `b`.
-    fn band(&self, b: usize) -> &[Run] {
-        &self.runs[self.band_starts[b]..self.band_starts[b + 1]]
-    }
-}
-
-/// A thread's working memory for [`Relighter::render_into`], kept between bands and frames so
-/// that a frame allocates and clears nothing once the sizes have settled.
-#[derive(Default)]
-struct Scratch {
-    /// The band's image, channel-interleaved, while its groups are added.
-    image: Vec<f32>,
-    /// A block's per-channel sums.
-    acc: [Vec<f32>; 3],
-}
-
-thread_local! {
-    static SCRATCH: std::cell::RefCell<Scratch> = std::cell::RefCell::new(Scratch::default());
-}
-
-/// Image rows per parallel band.
-const BAND_ROWS: usize = 8;
-
-/// Pixels per band of an image `width` pixels wide (at least one, so an empty image still
-/// cuts into bands); `render` and the band starts found at open must agree on it.
-fn band_pixels(width: usize) -> usize {
-    (width * BAND_ROWS).max(1)
-}
-/// Pixels contracted together: their three accumulators (12 KB) stay in L1 while the columns
-/// stream, each in runs of a block's pixels.
-const BLOCK: usize = 1024;
-
-/// A group's values for a frame and its columns with a nonzero weight (stored elements, or
-/// low-rank components), each with its weight per output channel.
-enum Columns<'a> {
-    /// f32 values and the radiance every pixel starts from (the low-rank mean's, else 0).
-    F32(&'a Tiled<f32>, Vec<Column>, [f32; 3]),
-    /// f16 values (the group's scale is folded into the weights).
-    F16(&'a Tiled<f16>, Vec<Column>),
-}
-
-/// The stored elements whose weight is nonzero; `w` is 3 x len, channel-major, and `scale`
-/// multiplies it.
-fn element_columns(w: &[f32], scale: f32) -> Vec<Column> {
-    let len = w.len() / 3;
-    (0..len)
-        .map(|e| {
-            (
-                e,
-                [w[e] * scale, w[len + e] * scale, w[2 * len + e] * scale],
-            )
-        })
-        .filter(|(_, we)| *we != [0.0; 3])
-        .collect()
-}
-
-impl Columns<'_> {
-    /// Radiance of the group's pixels `i0..i1` (at most [`BLOCK`]), per channel, into `acc`;
-    /// `simd` allows the vector kernels.
-    fn contract_block<const READS_ONLY: bool>(
-        &self,
-        i0: usize,
-        i1: usize,
-        simd: bool,
-        acc: &mut [Vec<f32>; 3],
-    ) {
-        let n = i1 - i0;
-        for a in acc.iter_mut() {
-            // Every value is written by the kernel: no clearing needed.
-            a.resize(n, 0.0);
-        }
+    /// The bake's kind.
+    pub fn kind(&self) -> BakeKind {
         match self {
-            Columns::F32(values, cols, init) => {
-                tiles_f32::<READS_ONLY>(values, cols, i0, *init, simd, acc)
-            }
-            Columns::F16(values, cols) => {
-                tiles_f16::<READS_ONLY>(values, cols, i0, [0.0; 3], simd, acc)
-            }
+            Relighter::Pixel(_) => BakeKind::Pixel,
+            Relighter::Vertex(_) => BakeKind::Vertex,
         }
     }
-}
 
-/// `sum_e W[c][e] x[e]` for the three output channels (`w` is 3 x len, channel-major), used
-/// once per frame to contract the low-rank mean and components.
-fn dot3(x: &[f32], w: &[f32], len: usize) -> [f32; 3] {
-    let mut out = [0.0f32; 3];
-    for e in 0..len {
-        out[0] += w[e] * x[e];
-        out[1] += w[len + e] * x[e];
-        out[2] += w[2 * len + e] * x[e];
+    /// Every material of the bake with its family, whether it is editable, its current
+    /// parameters and each parameter's valid (and sampled) range, in the bake's order.
+    pub fn materials(&self) -> Vec<MaterialInfo> {
+        match self {
+            Relighter::Pixel(r) => r.materials(),
+            Relighter::Vertex(r) => r.materials(),
+        }
     }
-    out
+
+    /// Current parameters of material `name` ([`RuntimeError::UnknownMaterial`] when the bake
+    /// has none of that name).
+    pub fn params(&self, name: &str) -> Result<MaterialParams, RuntimeError> {
+        match self {
+            Relighter::Pixel(r) => r.params(name),
+            Relighter::Vertex(r) => r.params(name),
+        }
+    }
+
+    /// Sets parameters of the editable material `name`, all or none: each value is checked
+    /// before any is applied, and a refused edit changes nothing. Refused, naming what is
+    /// wrong: a material the bake does not have ([`RuntimeError::UnknownMaterial`]) or did not
+    /// bake editable ([`RuntimeError::NotEditable`]), a parameter its family does not have
+    /// ([`RuntimeError::WrongParam`]), a value outside the parameter's valid range
+    /// ([`RuntimeError::OutOfRange`], the range as [`ParamInfo::range`] gives it). A lobe
+    /// parameter outside the bake's sampled range is accepted and rendered clamped to it
+    /// ([`ParamInfo::clamped`]). `relight --set MATERIAL.PARAM=VALUE` is
+    /// `set_params(MATERIAL, &[VALUE])`.
+    pub fn set_params(&mut self, name: &str, values: &[OverrideValue]) -> Result<(), RuntimeError> {
+        match self {
+            Relighter::Pixel(r) => r.set_params(name, values),
+            Relighter::Vertex(r) => r.set_params(name, values),
+        }
+    }
+
+    /// The size `(width, height)` of the images rendered now.
+    pub fn size(&self) -> (u32, u32) {
+        match self {
+            Relighter::Pixel(r) => r.size(),
+            Relighter::Vertex(r) => r.size(),
+        }
+    }
+
+    /// Renders the image for the current settings into `out`: `3 * width * height` floats
+    /// ([`Relighter::size`]), linear RGB, row-major, top row first; a buffer of any other
+    /// length is refused with [`RuntimeError::BufferSize`]. Every float is written, none is
+    /// read, nothing is allocated per frame once the sizes have settled.
+    pub fn render_into(&mut self, out: &mut [f32]) -> Result<RenderStats, RuntimeError> {
+        match self {
+            Relighter::Pixel(r) => r.render_into(out),
+            Relighter::Vertex(r) => r.render_into(out),
+        }
+    }
+
+    /// Renders the image for the current settings into a new [`Image`] (the same bits as
+    /// [`Relighter::render_into`]).
+    pub fn render(&mut self) -> Result<Image, RuntimeError> {
+        match self {
+            Relighter::Pixel(r) => r.render(),
+            Relighter::Vertex(r) => r.render(),
+        }
+    }
 }

@@ -6,9 +6,7 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
-use prt_formats::pixel::Precision;
-use prt_formats::Family;
-use prt_runtime::vertex::VertexRelighter;
+use prt_runtime::VertexRelighter;
 
 #[allow(dead_code)]
 #[path = "vertex/common.rs"]
@@ -45,48 +43,11 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
-/// A 12 x 12 glossy, textured grid (f16) under an asymmetric lat-long environment: the view
-/// stage's lobe, texture, visibility and background paths.
-fn bake(path: &std::path::Path) {
-    let up = [0.0, 1.0, 0.0];
-    let basis = constant_basis(0.06, [0.2, 0.1, 0.05, 0.05], true);
-    let mesh = Mesh::grid(12, up, 0);
-    let nv = mesh.positions.len();
-    let row = t0_rows(up, Some(&basis));
-    let rows: Vec<_> = (0..nv).map(|_| row.clone()).collect();
-    let mut g = Group::new((0..nv as u32).collect(), &rows, 3, 2, 1);
-    for (k, x) in g.t1.iter_mut().chain(g.t2.iter_mut()).enumerate() {
-        *x = 0.01 * (k % 5) as f32;
-    }
-    for (k, v) in g.visibility.iter_mut().enumerate() {
-        *v = ((k * 7) % 256) as u8;
-    }
-    // The second material has no triangles; it gives the group the slot count of the
-    // vertex tests' busy bake.
-    let materials = vec![
-        material("metal", Family::Ggx, [0.3, 0.4, 0.2], [0.8, 0.6, 0.4], 0.3),
-        material("wall", Family::Diffuse, [0.6, 0.2, 0.2], [0.0; 3], 0.0),
-    ];
-    let mut bake = Bake::new(
-        mesh,
-        materials,
-        vec![(0, g, Some(0))],
-        vec![basis],
-        [1.0; 3],
-    );
-    bake.meta.precision = Precision::F16;
-    bake.meta.reflections = 3;
-    bake.set_latlong(64, 32, asymmetric_map(64, 32), 10.0);
-    let texels = (0..8 * 8 * 3).map(|k| 0.2 + 0.1 * (k % 7) as f32).collect();
-    bake.set_texture(0, 8, 8, texels);
-    bake.write(path);
-}
-
 #[test]
 fn a_view_only_frame_allocates_nothing() {
     let dir = tempfile::tempdir().expect("temp dir");
     let path = dir.path().join("view.prtbake");
-    bake(&path);
+    glossy_grid().write(&path);
     let mut r = VertexRelighter::open(&path).expect("open");
     // One eye looking two ways: a new eye also runs the eye-inside-geometry check, whose
     // verdict (`prt_formats::view::judge_eye`, shared with the baker) holds a per-material
@@ -106,14 +67,14 @@ fn a_view_only_frame_allocates_nothing() {
     let mut out = vec![0.0f32; 3 * (w * h) as usize];
     // The first frames run the light and material stages and size the buffers.
     for cam in &cams {
-        r.render(cam, w, h, &mut out).expect("render");
+        frame(&mut r, cam, w, h, &mut out).expect("render");
     }
     let lit = out.iter().filter(|&&v| v > 0.0).count();
     assert!(lit > out.len() / 2, "the frame is mostly black: {lit} lit");
     COUNTING.store(true, Ordering::SeqCst);
     for _ in 0..3 {
         for cam in &cams {
-            r.render(cam, w, h, &mut out).expect("render");
+            frame(&mut r, cam, w, h, &mut out).expect("render");
         }
     }
     COUNTING.store(false, Ordering::SeqCst);

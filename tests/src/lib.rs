@@ -281,6 +281,24 @@ pub fn reference_image(
     .collect()
 }
 
+/// Applies one `--set MATERIAL.PARAM=VALUE` edit to a per-pixel bake, as `relight` does.
+pub fn edit_pixel(
+    r: &mut prt_runtime::PixelRelighter,
+    edit: &str,
+) -> Result<(), prt_runtime::RuntimeError> {
+    let o = prt_formats::parse_override(edit).expect("valid --set syntax");
+    r.set_params(&o.material, &[o.value])
+}
+
+/// Applies one `--set MATERIAL.PARAM=VALUE` edit to a per-vertex bake, as `relight` does.
+pub fn edit_vertex(
+    r: &mut prt_runtime::VertexRelighter,
+    edit: &str,
+) -> Result<(), prt_runtime::RuntimeError> {
+    let o = prt_formats::parse_override(edit).expect("valid --set syntax");
+    r.set_params(&o.material, &[o.value])
+}
+
 #[cfg(test)]
 mod tests {
     use super::relative_l2;

@@ -9,8 +9,7 @@ use prt_bake::metrics::relative_l2;
 use prt_bake::pixel::{self, Compressed, PixelBake, PixelBakeOptions, Precision, SlotLayout};
 use prt_bake::scene::Scene;
 use prt_formats::basis::BrdfBasis;
-use prt_formats::{Family, MaterialOverride};
-use prt_runtime::{Relighter, Variant};
+use prt_runtime::{Image, OverrideValue, PixelRelighter, RenderStats, Variant};
 
 use super::scenes::{SceneCtx, Setting};
 use super::stream::StreamBench;
@@ -138,62 +137,56 @@ impl Pca {
     }
 }
 
-/// A relighter whose state can be set to any setting: `reset` restores every editable
-/// material's starting parameters before the setting's edits are applied.
+/// A relighter of one variant whose state can be set to any setting: `reset` restores every
+/// editable material's starting parameters before the setting's edits are applied.
 pub(crate) struct Relit {
-    pub(crate) r: Relighter,
-    pub(crate) reset: Vec<MaterialOverride>,
-    /// The last frame, whose memory the next one reuses (as an interactive viewer would).
-    frame: prt_runtime::Frame,
+    pub(crate) r: PixelRelighter,
+    reset: Vec<(String, Vec<OverrideValue>)>,
+    /// The last frame, whose memory the next one renders into (as an interactive viewer
+    /// would).
+    image: Image,
 }
 
 impl Relit {
-    pub(crate) fn open(path: &Path) -> Result<Relit> {
-        use prt_formats::OverrideValue;
-        let r = Relighter::open(path).with_context(|| format!("opening {}", path.display()))?;
-        let mut reset = Vec::new();
-        for m in r.meta().materials.iter().filter(|m| m.editable) {
-            let p = m.params();
-            let mut push = |value| {
-                reset.push(MaterialOverride {
-                    material: m.name.clone(),
-                    value,
-                })
-            };
-            push(OverrideValue::Kd(p.kd));
-            if m.basis.is_some() {
-                push(OverrideValue::Ks(p.ks));
-                match m.family {
-                    Family::BlinnPhong => push(OverrideValue::Shininess(p.param)),
-                    Family::Ggx => push(OverrideValue::Alpha(p.param)),
-                    Family::Diffuse => {}
-                }
-            }
-        }
+    pub(crate) fn open(path: &Path, variant: Variant) -> Result<Relit> {
+        let mut r =
+            PixelRelighter::open(path).with_context(|| format!("opening {}", path.display()))?;
+        r.set_variant(variant)?;
+        let reset = r
+            .materials()
+            .into_iter()
+            .filter(|m| m.editable)
+            .map(|m| (m.name, m.params.iter().map(|p| p.value).collect()))
+            .collect();
+        let (width, height) = r.size();
         Ok(Relit {
             r,
             reset,
-            frame: prt_runtime::Frame::default(),
+            image: Image::new(width, height),
         })
     }
 
     pub(crate) fn set(&mut self, s: &Setting) -> Result<()> {
-        for e in self.reset.iter().chain(&s.edits) {
+        for (name, values) in &self.reset {
+            self.r.set_params(name, values)?;
+        }
+        for e in &s.edits {
             self.r
-                .apply(e)
+                .set_params(&e.material, &[e.value])
                 .with_context(|| format!("setting '{}': {e}", s.label))?;
         }
         Ok(())
     }
 
-    pub(crate) fn frame(&mut self, s: &Setting, v: Variant) -> Result<&prt_runtime::Frame> {
+    /// The frame of setting `s`, and what it cost.
+    pub(crate) fn frame(&mut self, s: &Setting) -> Result<(&Image, RenderStats)> {
         self.set(s)?;
-        self.r.render_into(v, &mut self.frame)?;
-        Ok(&self.frame)
+        let stats = self.r.render_into(self.image.pixels.as_flattened_mut())?;
+        Ok((&self.image, stats))
     }
 
-    pub(crate) fn image(&mut self, s: &Setting, v: Variant) -> Result<Vec<[f32; 3]>> {
-        Ok(self.frame(s, v)?.pixels.clone())
+    pub(crate) fn image(&mut self, s: &Setting) -> Result<Vec<[f32; 3]>> {
+        Ok(self.frame(s)?.0.pixels.clone())
     }
 }
 
@@ -216,7 +209,7 @@ pub(crate) struct RelightTiming {
     pub(crate) min_s: f64,
     pub(crate) max_s: f64,
     /// Uncompressed variants: the median time of the frame's reads alone
-    /// (`Relighter::time_reads`), timed right after each of its frames.
+    /// (`PixelRelighter::time_reads`), timed right after each of its frames.
     pub(crate) reads_median_s: Option<f64>,
     /// Largest relative L2 difference to the uncompressed relight over the settings.
     pub(crate) added_error: Option<f64>,
@@ -236,7 +229,7 @@ pub(crate) fn time_variants(
 ) -> Result<(Vec<RelightTiming>, Vec<f64>, Vec<f64>)> {
     let mut rls = runs
         .iter()
-        .map(|v| Relit::open(&v.path))
+        .map(|v| Relit::open(&v.path, v.variant))
         .collect::<Result<Vec<_>>>()?;
     let mut times = vec![Vec::with_capacity(frames); runs.len()];
     let mut reads = vec![Vec::with_capacity(frames); runs.len()];
@@ -251,13 +244,13 @@ pub(crate) fn time_variants(
         }
         let s = &settings[f % settings.len()];
         for (i, (r, v)) in rls.iter_mut().zip(runs).enumerate() {
-            let fr = r.frame(s, v.variant)?;
-            bytes[i] = fr.bytes_read;
+            let (_, stats) = r.frame(s)?;
+            bytes[i] = stats.bytes_read.unwrap_or(0);
             if f >= 2 {
-                times[i].push(fr.seconds);
+                times[i].push(stats.seconds);
             }
             if v.variant == Variant::Full {
-                let pass = r.r.time_reads(v.variant, &mut scratch)?;
+                let pass = r.r.time_reads(&mut scratch)?;
                 if f >= 2 {
                     reads[i].push(pass.seconds);
                 }
@@ -266,9 +259,9 @@ pub(crate) fn time_variants(
     }
     let mut added = vec![0.0f64; runs.len()];
     for s in settings {
-        let base = rls[0].image(s, runs[0].variant)?;
-        for (i, (r, v)) in rls.iter_mut().zip(runs).enumerate().skip(1) {
-            added[i] = added[i].max(relative_l2(&r.image(s, v.variant)?, &base));
+        let base = rls[0].image(s)?;
+        for (i, r) in rls.iter_mut().enumerate().skip(1) {
+            added[i] = added[i].max(relative_l2(&r.image(s)?, &base));
         }
     }
     let rows = runs
@@ -295,8 +288,8 @@ pub(crate) fn relight_all(
     settings: &[Setting],
     v: Variant,
 ) -> Result<Vec<Vec<[f32; 3]>>> {
-    let mut r = Relit::open(path)?;
-    settings.iter().map(|s| r.image(s, v)).collect()
+    let mut r = Relit::open(path, v)?;
+    settings.iter().map(|s| r.image(s)).collect()
 }
 
 pub(crate) fn write_bake(bake: &PixelBake, path: &Path) -> Result<u64> {

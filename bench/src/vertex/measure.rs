@@ -10,7 +10,7 @@ use prt_bake::config::{BakeConfig, EnvironmentConfig};
 use prt_bake::metrics::relative_l2;
 use prt_bake::scene::Scene;
 use prt_formats::view::CameraFrame;
-use prt_runtime::vertex::{RenderStats, VertexRelighter};
+use prt_runtime::{Image, OverrideValue, RenderStats, VertexRelighter};
 
 use crate::util::median;
 
@@ -34,7 +34,7 @@ pub(crate) const LIGHTS: [Light; 2] = [
     },
 ];
 
-pub(crate) type Image = Vec<[f32; 3]>;
+pub(crate) type Pixels = Vec<[f32; 3]>;
 
 /// The intensity the config lights its map with (the turned studio map uses it too).
 pub(crate) fn map_intensity(config: &BakeConfig) -> f32 {
@@ -49,22 +49,20 @@ pub(crate) fn lit(path: &Path, light: &Light, intensity: f32) -> Result<VertexRe
     let mut r =
         VertexRelighter::open(path).with_context(|| format!("opening {}", path.display()))?;
     if let Some((map, rotation)) = light.map {
-        let (env, _) = prt_formats::envmap::load_latlong(Path::new(map), intensity)
-            .with_context(|| format!("loading {map}"))?;
-        r.set_environment(env, rotation)?;
+        r.load_environment(map)?;
+        r.set_environment_rotation(rotation)?;
+        r.set_environment_intensity(intensity)?;
     }
     Ok(r)
 }
 
 /// One square frame from the bake's camera.
-pub(crate) fn render(r: &mut VertexRelighter, size: u32) -> Result<(Image, RenderStats)> {
-    let camera = r.default_camera();
-    let mut out = vec![0.0f32; 3 * (size * size) as usize];
-    let stats = r.render(&camera, size, size, &mut out)?;
-    Ok((
-        out.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect(),
-        stats,
-    ))
+pub(crate) fn render(r: &mut VertexRelighter, size: u32) -> Result<(Pixels, RenderStats)> {
+    r.set_camera(r.default_camera())?;
+    r.set_size(size, size)?;
+    let mut image = Image::new(size, size);
+    let stats = r.render_into(image.pixels.as_flattened_mut())?;
+    Ok((image.pixels, stats))
 }
 
 /// The reference tracer's image of `scene` under each light (true BRDFs, the config's
@@ -74,7 +72,7 @@ pub(crate) fn references(
     scene: &Scene,
     size: u32,
     spp: u32,
-) -> Result<Vec<Image>> {
+) -> Result<Vec<Pixels>> {
     let mut out = Vec::new();
     for light in &LIGHTS {
         eprintln!("reference: {} at {spp} spp", light.name);
@@ -106,14 +104,14 @@ pub(crate) struct Errors {
     /// Per light: relative L2 against the dense bake's relight (NaN without one).
     pub vs_dense: Vec<f64>,
     /// Per light: the image.
-    pub images: Vec<Image>,
+    pub images: Vec<Pixels>,
 }
 
 /// Relights every bake under every light and compares; `dense` is the index of the dense bake.
 pub(crate) fn errors(
     bakes: &[&Path],
     dense: Option<usize>,
-    references: &[Image],
+    references: &[Pixels],
     intensity: f32,
     size: u32,
 ) -> Result<Vec<Errors>> {
@@ -158,15 +156,15 @@ pub(crate) struct PathTimes {
     pub material: f64,
 }
 
-/// One frame from `camera`, timed as a whole.
+/// One frame from `camera`, timed as a whole (setting the camera checks a new eye).
 fn frame(
     r: &mut VertexRelighter,
-    camera: &CameraFrame,
-    size: u32,
+    camera: CameraFrame,
     out: &mut [f32],
 ) -> Result<(f64, RenderStats)> {
     let start = Instant::now();
-    let stats = r.render(camera, size, size, out)?;
+    r.set_camera(camera)?;
+    let stats = r.render_into(out)?;
     Ok((start.elapsed().as_secs_f64(), stats))
 }
 
@@ -188,12 +186,7 @@ pub(crate) fn time_paths(
     for r in relighters.iter_mut() {
         render(r, size)?;
     }
-    let edit = |k: usize| {
-        prt_formats::parse_override(&format!(
-            "{edit_material}.kd={},0.3,0.2",
-            0.3 + 0.1 * (k % 5) as f32
-        ))
-    };
+    let edit = |k: usize| OverrideValue::Kd([0.3 + 0.1 * (k % 5) as f32, 0.3, 0.2]);
     let mut out = vec![0.0f32; 3 * (size * size) as usize];
     let mut samples = vec![[(); 7].map(|_| Vec::new()); bakes.len()];
     let mut step = 0u32;
@@ -205,17 +198,17 @@ pub(crate) fn time_paths(
                 step += 1;
                 base.orbited(0.25 * step as f32)
             };
-            let (wall, s) = frame(r, &camera(), size, &mut out)?;
+            let (wall, s) = frame(r, camera(), &mut out)?;
             t[0].push(wall);
-            t[3].push(s.view_s);
-            t[4].push(s.raster_s);
-            r.apply(&edit(round)?)?;
-            let (wall, s) = frame(r, &camera(), size, &mut out)?;
+            t[3].push(s.view_s.unwrap_or(0.0));
+            t[4].push(s.raster_s.unwrap_or(0.0));
+            r.set_params(edit_material, &[edit(round)])?;
+            let (wall, s) = frame(r, camera(), &mut out)?;
             t[1].push(wall);
             t[6].push(s.material_s.unwrap_or(0.0));
             r.set_environment_rotation(10.0 * (round + 1) as f32)?;
-            r.apply(&edit(round + 1)?)?;
-            let (wall, s) = frame(r, &camera(), size, &mut out)?;
+            r.set_params(edit_material, &[edit(round + 1)])?;
+            let (wall, s) = frame(r, camera(), &mut out)?;
             t[2].push(wall);
             t[5].push(s.light_s.unwrap_or(0.0));
         }

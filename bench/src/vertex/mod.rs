@@ -20,7 +20,7 @@ use prt_bake::progress::Silent;
 use prt_bake::run::load;
 
 use measure::{editable_material, errors, map_intensity, references, time_paths};
-use measure::{Errors, Image, PathTimes};
+use measure::{Errors, PathTimes, Pixels};
 use sweep::{Baked, Setting};
 
 /// Arguments of `bench vertex`.
@@ -72,7 +72,7 @@ pub(crate) struct SceneRun {
     pub errors: Vec<Errors>,
     /// Per bake (only the timed ones).
     pub times: Vec<PathTimes>,
-    pub references: Vec<Image>,
+    pub references: Vec<Pixels>,
 }
 
 /// How a scene is baked and measured.

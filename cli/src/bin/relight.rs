@@ -16,12 +16,9 @@ use std::process::ExitCode;
 
 use anyhow::{bail, Context, Result};
 use clap::Parser;
-use prt_formats::envmap::{load_latlong, LatLongMap};
-use prt_formats::vertex::BakeKind;
 use prt_formats::view::CameraSpec;
-use prt_formats::{BakeFile, MaterialOverride};
-use prt_runtime::vertex::VertexRelighter;
-use prt_runtime::{Relighter, Variant};
+use prt_formats::MaterialOverride;
+use prt_runtime::{Image, PixelRelighter, Relighter, Variant, VertexRelighter};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -89,9 +86,6 @@ struct Args {
     turn: Option<f32>,
 }
 
-/// Image side when --width or --height is not given.
-const DEFAULT_SIDE: u32 = 512;
-
 fn main() -> ExitCode {
     prt_cli::exit_code(run(Args::parse()))
 }
@@ -100,10 +94,38 @@ fn run(args: Args) -> Result<()> {
     if args.repeat == 0 {
         bail!("--repeat must be at least 1");
     }
-    let file = BakeFile::open(&args.bake)?;
-    if BakeKind::of_metadata(file.metadata()) == Some(BakeKind::Vertex) {
-        return run_vertex(args, file);
+    let mut r = prt_runtime::open(&args.bake)?;
+    match &r {
+        Relighter::Pixel(_) => refuse_vertex_flags(&args)?,
+        Relighter::Vertex(_) if args.compressed => bail!(
+            "{}: --compressed reads the low-rank variant of a per-pixel bake; this is a \
+             per-vertex bake",
+            args.bake.display()
+        ),
+        Relighter::Vertex(_) => {}
     }
+    if args.list {
+        return list_materials(&r);
+    }
+    for o in &args.set {
+        r.set_params(&o.material, &[o.value])?;
+    }
+    let clamped = r
+        .materials()
+        .iter()
+        .flat_map(|m| &m.params)
+        .any(|p| p.clamped());
+    if clamped {
+        eprintln!("warning: a shininess/alpha lies outside its basis' sampled range and was clamped to it");
+    }
+    match r {
+        Relighter::Pixel(p) => run_pixel(args, p, clamped),
+        Relighter::Vertex(v) => run_vertex(args, v, clamped),
+    }
+}
+
+/// A per-pixel bake has its light and view frozen: the per-vertex flags are refused for it.
+fn refuse_vertex_flags(args: &Args) -> Result<()> {
     let vertex_only: Vec<&str> = [
         ("--env", args.env.is_some()),
         ("--env-intensity", args.env_intensity.is_some()),
@@ -126,70 +148,66 @@ fn run(args: Args) -> Result<()> {
             vertex_only.join(", ")
         );
     }
-    let mut r = Relighter::from_file(file)?;
-    if args.list {
-        list_materials(&r.meta().materials);
-        return Ok(());
+    Ok(())
+}
+
+/// A per-pixel bake: the image, relit `--repeat` times.
+fn run_pixel(args: Args, mut r: PixelRelighter, clamped: bool) -> Result<()> {
+    if args.compressed {
+        r.set_variant(Variant::Compressed)?;
     }
-    for o in &args.set {
-        r.apply(o)?;
-    }
-    let (_, clamped) = r.coefficients();
-    if clamped {
-        eprintln!("warning: a shininess/alpha lies outside its basis' sampled range and was clamped to it");
-    }
-    let variant = if args.compressed {
-        Variant::Compressed
-    } else {
-        Variant::Full
-    };
+    let (width, height) = r.size();
+    let mut image = Image::new(width, height);
     let mut times = Vec::new();
-    let mut frame = r.render(variant)?;
-    times.push(frame.seconds);
-    for _ in 1..args.repeat {
-        r.render_into(variant, &mut frame)?;
-        times.push(frame.seconds);
+    let mut bytes_read = 0;
+    for _ in 0..args.repeat {
+        let stats = r.render_into(image.pixels.as_flattened_mut())?;
+        times.push(stats.seconds);
+        bytes_read = stats.bytes_read.unwrap_or(0);
     }
     times.sort_by(f64::total_cmp);
     let median = times[times.len() / 2];
-    let out = args.out.unwrap_or_else(|| default_out(&args.bake));
-    prt_formats::write_image(
-        &out,
-        frame.width as usize,
-        frame.height as usize,
-        &frame.pixels,
-        args.exposure,
-    )
-    .with_context(|| format!("writing {}", out.display()))?;
+    let out = write_out(&args, &image)?;
     if args.json {
         println!(
             "{}",
             serde_json::json!({
                 "bake": args.bake,
                 "out": out,
-                "width": frame.width,
-                "height": frame.height,
+                "width": width,
+                "height": height,
                 "variant": if args.compressed { "compressed" } else { "full" },
                 "frames": times.len(),
                 "seconds_per_frame_median": median,
                 "seconds_per_frame_min": times[0],
-                "bytes_read_per_frame": frame.bytes_read,
-                "read_bandwidth_gb_per_s": frame.bytes_read as f64 / median.max(1e-12) / 1e9,
+                "bytes_read_per_frame": bytes_read,
+                "read_bandwidth_gb_per_s": bytes_read as f64 / median.max(1e-12) / 1e9,
                 "threads": rayon::current_num_threads(),
                 "clamped": clamped,
             })
         );
     } else {
         eprintln!(
-            "relit {}x{} in {:.2} ms ({} read per frame); wrote {}",
-            frame.width,
-            frame.height,
+            "relit {width}x{height} in {:.2} ms ({bytes_read} read per frame); wrote {}",
             median * 1e3,
-            frame.bytes_read,
             out.display()
         );
     }
     Ok(())
+}
+
+/// Writes the image to `--out` (default: next to the bake file); returns where.
+fn write_out(args: &Args, image: &Image) -> Result<PathBuf> {
+    let out = args.out.clone().unwrap_or_else(|| default_out(&args.bake));
+    prt_formats::write_image(
+        &out,
+        image.width as usize,
+        image.height as usize,
+        &image.pixels,
+        args.exposure,
+    )
+    .with_context(|| format!("writing {}", out.display()))?;
+    Ok(out)
 }
 
 /// The default output: next to the bake file, `<name>.relit.png`.
@@ -197,38 +215,27 @@ fn default_out(bake: &Path) -> PathBuf {
     bake.with_extension("").with_extension("relit.png")
 }
 
-fn list_materials(materials: &[prt_formats::pixel::MaterialMeta]) {
-    for m in materials {
+fn list_materials(r: &Relighter) -> Result<()> {
+    for m in r.materials() {
+        let p = r.params(&m.name)?;
         println!(
             "{:<20} {:<12} {} kd={:?} ks={:?} param={}",
             m.name,
             m.family,
             if m.editable { "editable" } else { "fixed   " },
-            m.kd,
-            m.ks,
-            m.param
+            p.kd,
+            p.ks,
+            p.param
         );
     }
+    Ok(())
 }
 
-/// A per-vertex bake: environment, camera and materials, then the image.
-fn run_vertex(args: Args, file: BakeFile) -> Result<()> {
-    if args.compressed {
-        bail!(
-            "{}: --compressed reads the low-rank variant of a per-pixel bake; this is a \
-             per-vertex bake",
-            args.bake.display()
-        );
-    }
-    let mut r = VertexRelighter::from_file(file)?;
-    if args.list {
-        list_materials(&r.meta().materials);
-        return Ok(());
-    }
-    let intensity = args.env_intensity.unwrap_or(1.0);
+/// A per-vertex bake: environment, camera and image size, then the image (the materials are
+/// set by the caller).
+fn run_vertex(args: Args, mut r: VertexRelighter, clamped: bool) -> Result<()> {
     if let Some(path) = &args.env {
-        let (map, report) = load_latlong(path, intensity)
-            .with_context(|| format!("environment map {}", path.display()))?;
+        let report = r.load_environment(path)?;
         if report.clamped_texels > 0 {
             eprintln!(
                 "warning: {}: {} texel(s) with negative channels were clamped to 0",
@@ -236,47 +243,42 @@ fn run_vertex(args: Args, file: BakeFile) -> Result<()> {
                 report.clamped_texels
             );
         }
-        r.set_environment(map, args.env_rotate.unwrap_or(0.0))?;
-    } else {
-        let (map, rotation) = r.environment();
-        let rotation = args.env_rotate.unwrap_or(rotation);
-        if intensity != 1.0 {
-            let (scaled, _) = LatLongMap::new(map.width, map.height, map.texels.clone(), intensity)
-                .context("--env-intensity")?;
-            r.set_environment(scaled, rotation)?;
-        } else {
-            r.set_environment_rotation(rotation)?;
-        }
+        // The baked rotation belongs to the baked map.
+        r.set_environment_rotation(args.env_rotate.unwrap_or(0.0))?;
+    } else if let Some(rotation) = args.env_rotate {
+        r.set_environment_rotation(rotation)?;
     }
-    for o in &args.set {
-        r.apply(o)?;
+    if let Some(intensity) = args.env_intensity {
+        r.set_environment_intensity(intensity)
+            .context("--env-intensity")?;
     }
+    let (default_width, default_height) = r.size();
+    let (width, height) = (
+        args.width.unwrap_or(default_width),
+        args.height.unwrap_or(default_height),
+    );
+    r.set_size(width, height)?;
     let camera = match &args.camera {
         Some(spec) => spec.frame()?,
         None => r.default_camera(),
     };
-    let (width, height) = (
-        args.width.unwrap_or(DEFAULT_SIDE),
-        args.height.unwrap_or(DEFAULT_SIDE),
-    );
+    r.set_camera(camera)?;
     if args.orbit.is_some_and(|d| !d.is_finite()) {
         bail!("--orbit must be a finite number of degrees");
     }
     if args.turn.is_some_and(|d| !d.is_finite()) {
         bail!("--turn must be a finite number of degrees");
     }
-    let (_, rotation0) = r.environment();
-    let mut rgb = vec![0.0f32; 3 * width as usize * height as usize];
-    let first = r.render(&camera, width, height, &mut rgb)?;
-    if first.clamped {
-        eprintln!("warning: a shininess/alpha lies outside its basis' sampled range and was clamped to it");
-    }
+    let rotation0 = r.environment_rotation();
+    let mut image = Image::new(width, height);
+    let first = r.render_into(image.pixels.as_flattened_mut())?;
+    let first_view = first.view_s.unwrap_or(0.0);
     // Repeats change nothing but the camera (with --orbit; then they measure the view stage
     // alone) and the light's turn (with --turn: all three stages).
-    // A frame's wall-clock time also counts what `render` does besides the stages (the check
-    // that a new eye is not inside an object).
-    let mut views = vec![first.view_s];
-    let mut rasters = vec![first.raster_s];
+    // A frame's wall-clock time also counts what it does besides the stages (the check that a
+    // new eye is not inside an object, made when the camera is set).
+    let mut views = vec![first_view];
+    let mut rasters = vec![first.raster_s.unwrap_or(0.0)];
     let mut lights = Vec::new();
     let mut frames = Vec::new();
     for k in 1..args.repeat {
@@ -288,12 +290,12 @@ fn run_vertex(args: Args, file: BakeFile) -> Result<()> {
             r.set_environment_rotation(rotation0 + deg * k as f32)?;
         }
         let start = std::time::Instant::now();
-        let stats = r
-            .render(&cam, width, height, &mut rgb)
+        r.set_camera(cam)
             .with_context(|| format!("frame {k} of the orbit"))?;
+        let stats = r.render_into(image.pixels.as_flattened_mut())?;
         frames.push(start.elapsed().as_secs_f64());
-        views.push(stats.view_s);
-        rasters.push(stats.raster_s);
+        views.push(stats.view_s.unwrap_or(0.0));
+        rasters.push(stats.raster_s.unwrap_or(0.0));
         if let Some(l) = stats.light_s {
             lights.push(l + stats.material_s.unwrap_or(0.0));
         }
@@ -304,22 +306,13 @@ fn run_vertex(args: Args, file: BakeFile) -> Result<()> {
     rasters.sort_by(f64::total_cmp);
     let view_median = views[views.len() / 2];
     let frame_median = frames.get(frames.len() / 2).copied();
-    let pixels: Vec<[f32; 3]> = rgb.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
-    let out = args.out.clone().unwrap_or_else(|| default_out(&args.bake));
-    prt_formats::write_image(
-        &out,
-        width as usize,
-        height as usize,
-        &pixels,
-        args.exposure,
-    )
-    .with_context(|| format!("writing {}", out.display()))?;
+    let out = write_out(&args, &image)?;
     let (light_s, material_s) = (
         first.light_s.unwrap_or(0.0),
         first.material_s.unwrap_or(0.0),
     );
     if args.json {
-        let (_, rotation) = r.environment();
+        let rotation = r.environment_rotation();
         println!(
             "{}",
             serde_json::json!({
@@ -334,9 +327,9 @@ fn run_vertex(args: Args, file: BakeFile) -> Result<()> {
                 "stages": {
                     "light_s": light_s,
                     "material_s": material_s,
-                    "view_s": first.view_s,
+                    "view_s": first_view,
                 },
-                "seconds_first_frame": light_s + material_s + first.view_s,
+                "seconds_first_frame": light_s + material_s + first_view,
                 "frames": views.len(),
                 "view_s_median": view_median,
                 "view_s_min": views[0],
@@ -347,7 +340,7 @@ fn run_vertex(args: Args, file: BakeFile) -> Result<()> {
                 "frame_s_median": frame_median,
                 "ns_per_pixel_view": view_median * 1e9 / (f64::from(width) * f64::from(height)),
                 "threads": rayon::current_num_threads(),
-                "clamped": first.clamped,
+                "clamped": clamped,
             })
         );
     } else {

@@ -1,6 +1,6 @@
 //! Target `bake-file`: the bake-file reader (`prt_formats::BakeFile`: open, tensor views,
-//! checksum verification) and the per-pixel runtime on top of it (`prt_runtime::Relighter`:
-//! open, edit, render), on a file written for every input.
+//! checksum verification) and the runtime on top of it (`prt_runtime::open`: open either
+//! kind, edit, render), on a file written for every input.
 //!
 //! Seeds: tiny bakes of the example scenes made in-process by the baker (f32 and f16, with
 //! and without the compressed variant, with Blinn-Phong and GGX bases), container files made
@@ -22,10 +22,11 @@ use prt_bake::pixel::{write_bake_file, PixelBakeOptions, SlotLayout};
 use prt_bake::progress::Silent;
 use prt_bake::run::load_scene;
 use prt_formats::basis::AngularGrid;
-use prt_formats::overrides::{MaterialOverride, OverrideValue};
+use prt_formats::overrides::OverrideValue;
 use prt_formats::pixel::Precision;
 use prt_formats::{BakeFile, BakeWriter, Dtype, Family};
-use prt_runtime::{Kernel, Relighter, Variant};
+use prt_runtime::hooks::Kernel;
+use prt_runtime::{PixelRelighter, Relighter, Variant, VertexRelighter};
 use serde_json::{Map, Value};
 
 use crate::engine::{outcome, Target};
@@ -613,88 +614,82 @@ impl Target for BakeFileTarget {
         if let Err(e) = file.verify_checksums() {
             return Ok(outcome("verify", &e.to_string(), dir));
         }
-        let vertex = prt_formats::vertex::BakeKind::of_metadata(file.metadata())
-            == Some(prt_formats::vertex::BakeKind::Vertex);
-        if vertex {
-            return Ok(relight_vertex(file, dir));
-        }
         drop(file);
 
-        // The runtime: open, render both variants, edit every editable material, render again.
-        let mut r = match Relighter::open(path) {
-            Ok(r) => r,
+        // The runtime: open the kind the file names, render, edit every editable material,
+        // render again.
+        let r = match prt_runtime::open(path) {
+            Ok(Relighter::Pixel(r)) => r,
+            Ok(Relighter::Vertex(r)) => return Ok(relight_vertex(r, dir)),
             Err(e) => return Ok(outcome("relighter", &e.to_string(), dir)),
         };
-        let render = |r: &Relighter| -> Result<(), String> {
-            r.render(Variant::Full).map_err(|e| e.to_string())?;
-            if r.has_compressed() {
-                r.render(Variant::Compressed).map_err(|e| e.to_string())?;
-            }
-            Ok(())
-        };
-        if let Err(e) = render(&r) {
-            return Ok(outcome("render", &e, dir));
-        }
-        let materials = r.meta().materials.clone();
-        let mut edits = 0;
-        for m in &materials {
-            let _ = r.params(&m.name);
-            let mut values = vec![OverrideValue::Kd([0.9, 0.1, 0.0])];
-            match m.family {
-                Family::BlinnPhong => values.push(OverrideValue::Shininess(1e6)),
-                Family::Ggx => values.push(OverrideValue::Alpha(1e-4)),
-                Family::Diffuse => {}
-            }
-            if m.family != Family::Diffuse {
-                values.push(OverrideValue::Ks([2.0, 0.0, 0.5]));
-            }
-            for value in values {
-                let o = MaterialOverride {
-                    material: m.name.clone(),
-                    value,
-                };
-                if r.apply(&o).is_ok() {
-                    edits += 1;
-                }
-            }
-        }
-        let _ = r.coefficients();
-        r.set_kernel(Kernel::Scalar);
-        if let Err(e) = render(&r) {
-            return Ok(outcome("render after edits", &e, dir));
-        }
-        Ok(format!(
-            "ok: relit, {} materials, {} groups, compressed {}, {} edits",
-            materials.len().min(4),
-            r.meta().groups.len().min(4),
-            r.has_compressed(),
-            edits.min(4)
-        ))
+        Ok(relight_pixel(r, dir))
     }
 }
 
-/// The per-vertex runtime on a (mutated) file: open, render from the baked camera, turn the
-/// light, edit every editable material, render again.
-fn relight_vertex(file: BakeFile, dir: &Path) -> String {
-    use prt_runtime::vertex::VertexRelighter;
-    let mut r = match VertexRelighter::from_file(file) {
-        Ok(r) => r,
-        Err(e) => return outcome("vertex relighter", &e.to_string(), dir),
+/// The per-pixel runtime on a (mutated) file: render both variants, edit every editable
+/// material with values at the ends of their ranges, render again on the portable kernel.
+fn relight_pixel(mut r: PixelRelighter, dir: &Path) -> String {
+    let render = |r: &mut PixelRelighter| -> Result<(), String> {
+        r.set_variant(Variant::Full).map_err(|e| e.to_string())?;
+        r.render().map_err(|e| e.to_string())?;
+        if r.has_compressed() {
+            r.set_variant(Variant::Compressed)
+                .map_err(|e| e.to_string())?;
+            r.render().map_err(|e| e.to_string())?;
+        }
+        Ok(())
     };
-    let camera = r.default_camera();
+    if let Err(e) = render(&mut r) {
+        return outcome("render", &e, dir);
+    }
+    let materials = r.materials();
+    let mut edits = 0;
+    for m in &materials {
+        let _ = r.params(&m.name);
+        let mut values = vec![OverrideValue::Kd([0.9, 0.1, 0.0])];
+        match m.family {
+            Family::BlinnPhong => values.push(OverrideValue::Shininess(1e6)),
+            Family::Ggx => values.push(OverrideValue::Alpha(1e-4)),
+            Family::Diffuse => {}
+        }
+        if m.family != Family::Diffuse {
+            values.push(OverrideValue::Ks([2.0, 0.0, 0.5]));
+        }
+        for value in values {
+            if r.set_params(&m.name, &[value]).is_ok() {
+                edits += 1;
+            }
+        }
+    }
+    let _ = r.coefficients();
+    r.set_kernel(Kernel::Scalar);
+    if let Err(e) = render(&mut r) {
+        return outcome("render after edits", &e, dir);
+    }
+    format!(
+        "ok: relit, {} materials, {} groups, compressed {}, {} edits",
+        materials.len().min(4),
+        r.meta().groups.len().min(4),
+        r.has_compressed(),
+        edits.min(4)
+    )
+}
+
+/// The per-vertex runtime on a (mutated) file: render from the baked camera, turn the light,
+/// edit every editable material, render again.
+fn relight_vertex(mut r: VertexRelighter, dir: &Path) -> String {
     let mut image = vec![0.0f32; 3 * 6 * 5];
-    if let Err(e) = r.render(&camera, 6, 5, &mut image) {
+    let first = r.set_size(6, 5).and_then(|()| r.render_into(&mut image));
+    if let Err(e) = first {
         return outcome("vertex render", &e.to_string(), dir);
     }
     let _ = r.set_environment_rotation(40.0);
-    for m in r.meta().materials.clone() {
-        let _ = r.apply(&MaterialOverride {
-            material: m.name.clone(),
-            value: OverrideValue::Kd([0.9, 0.1, 0.0]),
-        });
+    for m in r.materials() {
+        let _ = r.set_params(&m.name, &[OverrideValue::Kd([0.9, 0.1, 0.0])]);
     }
     let _ = r.vertex_incident(0);
-    if let Err(e) = r.render(&camera, 6, 5, &mut image) {
+    if let Err(e) = r.render_into(&mut image) {
         return outcome("vertex render after edits", &e.to_string(), dir);
     }
     format!(

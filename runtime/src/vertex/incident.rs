@@ -24,9 +24,9 @@ use super::clustered::{
     contract_light, expand_vertex, one_bounce_per_cluster, two_bounce_per_cluster, ClusterLight,
 };
 use super::constants::ShadingConstants;
+use super::light::LightCoefficients;
 use super::open::Scene;
 use crate::error::RuntimeError;
-use crate::light::LightCoefficients;
 
 /// Offset of the irradiance `E` (RGB) in a vertex's record.
 pub(super) const E_AT: usize = 0;
@@ -55,15 +55,54 @@ pub(super) struct GroupLight {
 }
 
 /// One group's material-stage results: per vertex a record `[E, I2, I1[16], U[rank]]`, RGB
-/// each ([`E_AT`], [`I2_AT`], [`I1_AT`], [`U_AT`]).
+/// each ([`E_AT`], [`I2_AT`], [`I1_AT`], [`U_AT`]; `rank` is `r_i` of the group's shading
+/// basis, 0 without one).
 #[derive(Clone, Debug, Default)]
 pub(super) struct GroupShade {
     /// Floats per vertex: `U_AT + 3 rank`.
     pub stride: usize,
-    /// `r_i` of the group's shading basis (0 without one).
-    pub rank: usize,
     /// `[V_g][stride]`.
     pub data: Vec<f32>,
+}
+
+/// The light arriving at one vertex for the current environment and materials, in the
+/// vertex's frame (`prt_formats::vertex::vertex_frame`), RGB: what the material stage made
+/// of it (a hook for the tests, which check it against sums of their own).
+#[cfg(feature = "hooks")]
+#[derive(Clone, Debug, PartialEq)]
+pub struct VertexIncident {
+    /// The group (material) the vertex belongs to.
+    pub group: usize,
+    /// `E`: the irradiance, `integral I (w . n)+ dw`.
+    pub irradiance: [f32; 3],
+    /// `I1[s]`: the SH coefficients (order 4) of the light after one reflection.
+    pub one_bounce_sh: [[f32; 3]; 16],
+    /// `I2`: the uniform radiance with the irradiance of the light after two reflections.
+    pub two_bounce: [f32; 3],
+    /// `U[c] = integral I U^i(w_local, c) (w . n)+ dw` for the rows of the material's shading
+    /// basis (empty for a material without a lobe).
+    pub incident: Vec<[f32; 3]>,
+}
+
+#[cfg(feature = "hooks")]
+impl VertexIncident {
+    /// The record of vertex `local` of group `group` in the material stage's `shades`, or
+    /// `None` for a vertex in no group.
+    pub(super) fn of(shades: &[GroupShade], group: u32, local: u32) -> Option<VertexIncident> {
+        if group == super::open::NO_GROUP {
+            return None;
+        }
+        let shade = &shades[group as usize];
+        let rec = &shade.data[local as usize * shade.stride..][..shade.stride];
+        let rgb = |at: usize| [rec[at], rec[at + 1], rec[at + 2]];
+        Some(VertexIncident {
+            group: group as usize,
+            irradiance: rgb(E_AT),
+            one_bounce_sh: std::array::from_fn(|s| rgb(I1_AT + 3 * s)),
+            two_bounce: rgb(I2_AT),
+            incident: (U_AT..shade.stride).step_by(3).map(rgb).collect(),
+        })
+    }
 }
 
 /// Stored values of a T0, T1 or T2 tensor.
@@ -456,7 +495,7 @@ pub(super) fn material_stage(
                     }
                 }
             });
-        out.push(GroupShade { stride, rank, data });
+        out.push(GroupShade { stride, data });
     }
     out
 }

@@ -8,17 +8,20 @@
 //! | --- | --- | --- |
 //! | light | the environment or its rotation changes | light coefficients (cube map, Haar C0, coarse cubes C1 and C2, prefiltered cubes), then per vertex T0's sparse dots, `C1 . T1` (the big one) and `C2 . T2` (`incident.rs`) |
 //! | material | a material parameter changes (or the light stage ran) | per vertex: the light-contracted T1, T2 with the slot coefficients, then the irradiance `E` and the incident projections `U` (`incident.rs`, constants in `constants.rs`) |
-//! | view | every frame | rasterize, interpolate the vertex records, shade each pixel's last reflection (`shade.rs`) |
+//! | view | every frame | rasterize (`raster.rs`; the film formula and the eye check in `view.rs`), interpolate the vertex records, shade each pixel's last reflection (`shade.rs`) |
 //!
 //! So a view-only change re-runs the view stage, a material change the material and view
 //! stages, a light change all three; the image is the same bit for bit either way, and on any
 //! number of threads (every vertex and every pixel is computed on its own, in a fixed order
 //! of operations).
 //!
+//! An environment's light coefficients (cube map, Haar, coarse cubes, prefiltered cubes) are
+//! computed in `light.rs`.
+//!
 //! Opening validates the whole file (`open.rs`); a per-pixel bake is refused with
 //! [`RuntimeError::WrongKind`]. A camera is refused when its frame is not finite, its field of
 //! view is not in (0, 180) degrees ([`RuntimeError::Raster`]) or its eye is inside an object
-//! (the baker's rule, [`crate::raster::eye_verdict`]; [`RuntimeError::EyeInside`]).
+//! (the baker's rule, `view::eye_verdict`; [`RuntimeError::EyeInside`]).
 //!
 //! Surfaces are seen from the side of their vertex normals only: the baker stores the light
 //! arriving on that side, so a pixel looking at the other side (or at a silhouette where the
@@ -26,63 +29,40 @@
 
 mod clustered;
 mod constants;
-mod incident;
+pub(crate) mod incident;
+pub(crate) mod light;
 mod open;
+mod raster;
 mod shade;
+pub(crate) mod view;
+
+pub use view::RasterError;
 
 use std::time::Instant;
 
 use prt_formats::envmap::{EnvMapReport, LatLongMap};
 use prt_formats::lighting::cubemap::rotation_y;
 use prt_formats::lighting::{prefilter, CubeMap, LightingError};
-use prt_formats::overrides::MaterialOverride;
+use prt_formats::overrides::OverrideValue;
 use prt_formats::pixel::MaterialParams;
 use prt_formats::vertex::VertexBakeMeta;
 use prt_formats::view::CameraFrame;
 use prt_formats::BakeFile;
 
 use crate::error::RuntimeError;
-use crate::light::{self, LightCoefficients};
-use crate::materials::Materials;
-use crate::raster::{eye_verdict, Rasterizer, ViewRays, VisibilityBuffer};
-use crate::Kernel;
+use crate::image::{check_len, Image, RenderStats};
+use crate::materials::{MaterialInfo, Materials};
 use constants::ShadingConstants;
-use incident::{GroupLight, GroupShade, E_AT, I1_AT, I2_AT, U_AT};
-use open::{Scene, NO_GROUP};
+use incident::{GroupLight, GroupShade};
+use light::LightCoefficients;
+use open::Scene;
+use raster::{Rasterizer, VisibilityBuffer};
 use shade::{Environment, Lobe, Prefiltered, ViewCache, ViewInputs, Width};
+use view::{eye_verdict, ViewRays};
 
-/// What a [`VertexRelighter::render`] cost, per stage (wall-clock seconds; `None` when the
-/// stage's cached result was reused).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RenderStats {
-    /// The light stage, when it ran.
-    pub light_s: Option<f64>,
-    /// The material stage, when it ran.
-    pub material_s: Option<f64>,
-    /// The view stage (rasterization and shading).
-    pub view_s: f64,
-    /// The rasterization part of `view_s`.
-    pub raster_s: f64,
-    /// Whether a lobe parameter lay outside its basis' sampled range (and was clamped to it).
-    pub clamped: bool,
-}
-
-/// The light arriving at one vertex for the current environment and materials, in the
-/// vertex's frame (`prt_formats::vertex::vertex_frame`), RGB.
-#[derive(Clone, Debug, PartialEq)]
-pub struct VertexIncident {
-    /// The group (material) the vertex belongs to.
-    pub group: usize,
-    /// `E`: the irradiance, `integral I (w . n)+ dw`.
-    pub irradiance: [f32; 3],
-    /// `I1[s]`: the SH coefficients (order 4) of the light after one reflection.
-    pub one_bounce_sh: [[f32; 3]; 16],
-    /// `I2`: the uniform radiance with the irradiance of the light after two reflections.
-    pub two_bounce: [f32; 3],
-    /// `U[c] = integral I U^i(w_local, c) (w . n)+ dw` for the rows of the material's shading
-    /// basis (empty for a material without a lobe).
-    pub incident: Vec<[f32; 3]>,
-}
+/// The image side of a per-vertex bake until [`VertexRelighter::set_size`] changes it (the
+/// bake stores a camera but no image size).
+pub const DEFAULT_IMAGE_SIDE: u32 = 512;
 
 /// The light stage's results.
 struct LightState {
@@ -95,11 +75,10 @@ struct ShadeState {
     groups: Vec<GroupShade>,
     /// Per material, its lobe at the current parameter.
     lobes: Vec<Option<Lobe>>,
-    clamped: bool,
 }
 
-/// An opened per-vertex bake with the current environment and materials (see the module
-/// documentation).
+/// An opened per-vertex bake with the current environment, camera, image size and materials
+/// (docs/vertex.md; a frame runs only the stages whose inputs changed).
 pub struct VertexRelighter {
     file: BakeFile,
     meta: VertexBakeMeta,
@@ -112,7 +91,12 @@ pub struct VertexRelighter {
     /// The nonzero split widths of all bases (degrees, ascending): the light's prefilters.
     prefilter_widths: Vec<f64>,
     materials: Materials,
+    /// The environment as set (the baked one at open), before its intensity.
     environment: LatLongMap,
+    /// The multiplier of the environment's radiance.
+    intensity: f32,
+    /// `environment` times `intensity`, when the intensity is not 1: what lights the scene.
+    scaled_environment: Option<LatLongMap>,
     rotation_deg: f32,
     /// The current map's prefiltered cubes (per `prefilter_widths`) unturned: a turn of the
     /// map reuses them, looked up at turned directions (see [`light_coefficients`]).
@@ -123,8 +107,11 @@ pub struct VertexRelighter {
     visibility: VisibilityBuffer,
     /// The view stage's memory kept between frames.
     view: ViewCache,
-    /// The view stage's inner loops.
-    kernel: Kernel,
+    /// Whether the view stage's vector loops may run (the hooks' `Kernel` switches them off).
+    simd: bool,
+    camera: CameraFrame,
+    width: u32,
+    height: u32,
     /// The last eye that passed the inside-geometry check.
     eye_checked: Option<[f32; 3]>,
 }
@@ -137,7 +124,9 @@ impl VertexRelighter {
     }
 
     /// Validates an opened bake file as a per-vertex bake (see [`VertexRelighter::open`]).
-    /// The environment is the one baked with, the materials their baked parameters.
+    /// The environment is the one baked with (intensity 1, its baked rotation), the camera
+    /// the baked one, the image [`DEFAULT_IMAGE_SIDE`] square, the materials at their baked
+    /// parameters.
     pub fn from_file(file: BakeFile) -> Result<VertexRelighter, RuntimeError> {
         let (meta, scene) = open::validate(&file)?;
         let path = file.path().display().to_string();
@@ -145,7 +134,15 @@ impl VertexRelighter {
             path: path.clone(),
             reason,
         };
-        let materials = Materials::new(&meta.materials, &meta.bases).map_err(&schema)?;
+        let mut materials = Materials::new(&meta.materials, &meta.bases).map_err(&schema)?;
+        // A material's lobe is also evaluated with its group's shading basis, whose sampled
+        // range clamps it too.
+        for (m, group) in scene.material_group.iter().enumerate() {
+            let shading = group.and_then(|g| meta.groups[g as usize].shading);
+            if let Some(b) = shading {
+                materials.narrow_sampled(m, &scene.shading[b as usize].param_samples);
+            }
+        }
         let constants = scene.shading.iter().map(ShadingConstants::new).collect();
         let mut prefilter_widths: Vec<f64> = scene
             .shading
@@ -181,6 +178,7 @@ impl VertexRelighter {
             widths.push(ws);
         }
         let (environment, rotation_deg) = scene.environment.clone();
+        let camera = default_camera(&meta);
         Ok(VertexRelighter {
             file,
             meta,
@@ -191,6 +189,8 @@ impl VertexRelighter {
             prefilter_widths,
             materials,
             environment,
+            intensity: 1.0,
+            scaled_environment: None,
             rotation_deg,
             prefiltered_unturned: None,
             light: None,
@@ -203,15 +203,12 @@ impl VertexRelighter {
                 fragments: Vec::new(),
             },
             view: ViewCache::default(),
-            kernel: Kernel::Auto,
+            simd: true,
+            camera,
+            width: DEFAULT_IMAGE_SIDE,
+            height: DEFAULT_IMAGE_SIDE,
             eye_checked: None,
         })
-    }
-
-    /// Chooses the view stage's inner loops (default [`Kernel::Auto`]: AVX2 when the CPU has
-    /// it); the frames are the same bit for bit, only the speed differs.
-    pub fn set_kernel(&mut self, kernel: Kernel) {
-        self.kernel = kernel;
     }
 
     /// The bake's per-vertex metadata (materials, groups, the baked environment and camera).
@@ -219,65 +216,130 @@ impl VertexRelighter {
         &self.meta
     }
 
+    /// Every material with its family, current parameters and their ranges.
+    pub fn materials(&self) -> Vec<MaterialInfo> {
+        self.materials.info()
+    }
+
+    /// Current parameters of material `name`.
+    pub fn params(&self, name: &str) -> Result<MaterialParams, RuntimeError> {
+        self.materials.params(name)
+    }
+
+    /// Sets parameters of the editable material `name`, all or none (see
+    /// [`crate::Relighter::set_params`]). The material stage runs at the next render.
+    pub fn set_params(&mut self, name: &str, values: &[OverrideValue]) -> Result<(), RuntimeError> {
+        self.materials.set(name, values)?;
+        self.shaded = None;
+        Ok(())
+    }
+
+    /// The image size `(width, height)` in pixels.
+    pub fn size(&self) -> (u32, u32) {
+        (self.width, self.height)
+    }
+
+    /// Renders `width` x `height` images from now on; a size outside
+    /// `1..=16384` is refused ([`RuntimeError::Raster`]).
+    pub fn set_size(&mut self, width: u32, height: u32) -> Result<(), RuntimeError> {
+        ViewRays::new(&self.camera, width, height)?;
+        (self.width, self.height) = (width, height);
+        Ok(())
+    }
+
+    /// The current camera.
+    pub fn camera(&self) -> CameraFrame {
+        self.camera
+    }
+
     /// The camera the scene was baked with, as a frame (right = forward x up).
     pub fn default_camera(&self) -> CameraFrame {
-        let c = &self.meta.camera;
-        let (f, u) = (c.forward, c.up);
-        let r = [
-            f[1] * u[2] - f[2] * u[1],
-            f[2] * u[0] - f[0] * u[2],
-            f[0] * u[1] - f[1] * u[0],
-        ];
-        let len = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt();
-        CameraFrame {
-            position: c.position,
-            forward: f,
-            right: r.map(|x| x / len),
-            up: u,
-            yfov: c.yfov,
-        }
+        default_camera(&self.meta)
     }
 
-    /// The current environment map and its rotation about +Y (degrees).
-    pub fn environment(&self) -> (&LatLongMap, f32) {
-        (&self.environment, self.rotation_deg)
+    /// Views the scene through `camera` from now on (a view-only change: only the view stage
+    /// runs at the next render). Refused, and the camera kept, when its frame is not finite,
+    /// its field of view is not in (0, 180) degrees ([`RuntimeError::Raster`]) or its eye is
+    /// inside an object ([`RuntimeError::EyeInside`]).
+    pub fn set_camera(&mut self, camera: CameraFrame) -> Result<(), RuntimeError> {
+        ViewRays::new(&camera, self.width, self.height)?;
+        self.check_eye(camera.position)?;
+        self.camera = camera;
+        Ok(())
     }
 
-    /// Lights the scene with `map` turned `rotation_deg` degrees about +Y (the right-hand
-    /// rule, docs/conventions.md). The light stage runs at the next render.
-    pub fn set_environment(
-        &mut self,
-        map: LatLongMap,
-        rotation_deg: f32,
-    ) -> Result<(), RuntimeError> {
-        check_rotation(rotation_deg)?;
+    /// The current environment map as set (before its intensity; the baked one at open).
+    pub fn environment_map(&self) -> &LatLongMap {
+        &self.environment
+    }
+
+    /// The current environment's rotation about +Y, in degrees.
+    pub fn environment_rotation(&self) -> f32 {
+        self.rotation_deg
+    }
+
+    /// The current environment's intensity multiplier.
+    pub fn environment_intensity(&self) -> f32 {
+        self.intensity
+    }
+
+    /// Lights the scene with `map`, at the current rotation and intensity. The light stage
+    /// runs at the next render.
+    pub fn set_environment(&mut self, map: LatLongMap) -> Result<(), RuntimeError> {
+        let scaled = scaled(&map, self.intensity)?;
         self.environment = map;
-        self.rotation_deg = rotation_deg;
+        self.scaled_environment = scaled;
         self.prefiltered_unturned = None;
         self.light = None;
         Ok(())
     }
 
-    /// [`VertexRelighter::set_environment`] from texels in memory (`width x height`, row-major,
-    /// top row first, linear RGB), checked as `prt_formats::envmap::LatLongMap::new` checks
-    /// them: NaN or infinite texels are refused, negative channels clamped to 0 (counted in
-    /// the report).
-    pub fn set_environment_latlong(
+    /// [`VertexRelighter::set_environment`] from texels in memory: `3 * width * height`
+    /// floats, a `height` x `width` x 3 array (row-major, top row first, linear RGB), checked
+    /// as `LatLongMap::new` checks them: NaN or infinite texels are refused, negative channels
+    /// clamped to 0 (counted in the report).
+    pub fn set_environment_texels(
         &mut self,
         width: usize,
         height: usize,
-        texels: Vec<[f32; 3]>,
-        rotation_deg: f32,
+        texels: &[f32],
     ) -> Result<EnvMapReport, RuntimeError> {
-        check_rotation(rotation_deg)?;
+        if texels.len() != 3 * width * height {
+            return Err(RuntimeError::BufferSize {
+                what: "the environment's texels",
+                width: width as u32,
+                height: height as u32,
+                expected: 3 * width * height,
+                got: texels.len(),
+            });
+        }
+        let texels = texels.as_chunks::<3>().0.to_vec();
         let (map, report) = LatLongMap::new(width, height, texels, 1.0)?;
-        self.set_environment(map, rotation_deg)?;
+        self.set_environment(map)?;
         Ok(report)
     }
 
-    /// Turns the current environment to `rotation_deg` degrees about +Y (absolute, not added
-    /// to the current rotation). The light stage runs at the next render unless the rotation
-    /// is unchanged.
+    /// [`VertexRelighter::set_environment`] from a lat-long map file (`.exr` or `.hdr`),
+    /// checked as [`VertexRelighter::set_environment_texels`] checks texels.
+    #[cfg(feature = "image-io")]
+    pub fn load_environment(
+        &mut self,
+        path: impl AsRef<std::path::Path>,
+    ) -> Result<EnvMapReport, RuntimeError> {
+        let path = path.as_ref();
+        let (map, report) = prt_formats::envmap::load_latlong(path, 1.0).map_err(|source| {
+            RuntimeError::EnvironmentFile {
+                path: path.display().to_string(),
+                source,
+            }
+        })?;
+        self.set_environment(map)?;
+        Ok(report)
+    }
+
+    /// Turns the environment to `rotation_deg` degrees about +Y (absolute, not added to the
+    /// current rotation; the right-hand rule, docs/conventions.md). The light stage runs at
+    /// the next render unless the rotation is unchanged.
     pub fn set_environment_rotation(&mut self, rotation_deg: f32) -> Result<(), RuntimeError> {
         check_rotation(rotation_deg)?;
         if rotation_deg != self.rotation_deg {
@@ -287,95 +349,48 @@ impl VertexRelighter {
         Ok(())
     }
 
-    /// Current parameters of material `name`.
-    pub fn params(&self, name: &str) -> Result<MaterialParams, RuntimeError> {
-        self.materials.params(name)
-    }
-
-    /// Applies one `--set MATERIAL.PARAM=VALUE` edit, by the per-pixel runtime's rules.
-    pub fn apply(&mut self, o: &MaterialOverride) -> Result<(), RuntimeError> {
-        self.materials.apply(o)?;
-        self.shaded = None;
+    /// Multiplies the environment's radiance by `intensity` (absolute: 1 is the map as set;
+    /// finite and >= 0). The light stage runs at the next render unless it is unchanged.
+    pub fn set_environment_intensity(&mut self, intensity: f32) -> Result<(), RuntimeError> {
+        if intensity == self.intensity {
+            return Ok(());
+        }
+        self.scaled_environment = scaled(&self.environment, intensity)?;
+        self.intensity = intensity;
+        self.prefiltered_unturned = None;
+        self.light = None;
         Ok(())
     }
 
-    /// Sets all parameters of the editable material `name` (colours finite and >= 0, the
-    /// lobe parameter finite; it is clamped to the bases' sampled ranges when used).
-    pub fn set_params(&mut self, name: &str, p: MaterialParams) -> Result<(), RuntimeError> {
-        self.materials.set(name, p)?;
-        self.shaded = None;
-        Ok(())
+    /// Renders the current view into a new [`Image`] (see [`VertexRelighter::render_into`]).
+    pub fn render(&mut self) -> Result<Image, RuntimeError> {
+        let mut image = Image::new(self.width, self.height);
+        self.render_into(image.pixels.as_flattened_mut())?;
+        Ok(image)
     }
 
-    /// RGB coefficient of every global slot for the current parameters, and whether any
-    /// parameter lay outside its basis' sampled range (and was clamped).
-    pub fn coefficients(&self) -> (Vec<[f32; 3]>, bool) {
-        self.materials.coefficients()
-    }
-
-    /// The light arriving at mesh vertex `vertex` for the current environment and materials
-    /// (running the light and material stages if needed); `None` for a vertex out of range or
-    /// in no group.
-    pub fn vertex_incident(
-        &mut self,
-        vertex: usize,
-    ) -> Result<Option<VertexIncident>, RuntimeError> {
-        self.ensure_light()?;
-        self.ensure_shaded();
-        let Some(&(g, local)) = self.scene.vertex_group.get(vertex) else {
-            return Ok(None);
-        };
-        let Some(shaded) = &self.shaded else {
-            return Ok(None);
-        };
-        if g == NO_GROUP {
-            return Ok(None);
-        }
-        let shade = &shaded.groups[g as usize];
-        let rec = &shade.data[local as usize * shade.stride..][..shade.stride];
-        let rgb = |at: usize| [rec[at], rec[at + 1], rec[at + 2]];
-        Ok(Some(VertexIncident {
-            group: g as usize,
-            irradiance: rgb(E_AT),
-            one_bounce_sh: std::array::from_fn(|s| rgb(I1_AT + 3 * s)),
-            two_bounce: rgb(I2_AT),
-            incident: (0..shade.rank).map(|c| rgb(U_AT + 3 * c)).collect(),
-        }))
-    }
-
-    /// Renders the view of `camera` at `width x height` into `out` (RGB f32, rows top first,
-    /// `3 width height` floats), running the stages whose inputs changed (see the module
-    /// documentation). Nothing is written to `out` on error.
-    pub fn render(
-        &mut self,
-        camera: &CameraFrame,
-        width: u32,
-        height: u32,
-        out: &mut [f32],
-    ) -> Result<RenderStats, RuntimeError> {
-        let rays = ViewRays::new(camera, width, height)?;
-        let expected = 3 * width as usize * height as usize;
-        if out.len() != expected {
-            return Err(RuntimeError::OutputSize {
-                width,
-                height,
-                expected,
-                got: out.len(),
-            });
-        }
+    /// Renders the current camera's view at the current size into `out`: `3 * width *
+    /// height` floats, linear RGB, row-major, top row first (anything else is refused with
+    /// [`RuntimeError::BufferSize`]), running the stages whose inputs changed (see the module
+    /// documentation). Every float is written and none is read; nothing is written on error.
+    pub fn render_into(&mut self, out: &mut [f32]) -> Result<RenderStats, RuntimeError> {
+        let start = Instant::now();
+        let (camera, width, height) = (self.camera, self.width, self.height);
+        check_len("the output buffer", out, width, height)?;
+        let rays = ViewRays::new(&camera, width, height)?;
         self.check_eye(camera.position)?;
         let light_s = self.ensure_light()?;
         let material_s = self.ensure_shaded();
-        let start = Instant::now();
+        let view_start = Instant::now();
         self.rasterizer.render(
             &self.scene.positions,
             &self.scene.triangles,
-            camera,
+            &camera,
             width,
             height,
             &mut self.visibility,
         )?;
-        let raster_s = start.elapsed().as_secs_f64();
+        let raster_s = view_start.elapsed().as_secs_f64();
         let (Some(light), Some(shaded)) = (&self.light, &self.shaded) else {
             // Both were just made.
             return Err(RuntimeError::VertexSchema {
@@ -416,21 +431,57 @@ impl VertexRelighter {
             widths: &self.widths,
             light: &light.coefficients,
             environment: Environment {
-                map: &self.environment,
+                map: self
+                    .scaled_environment
+                    .as_ref()
+                    .unwrap_or(&self.environment),
                 back: rotation_y(-f64::from(self.rotation_deg)),
                 turned: self.rotation_deg != 0.0,
             },
             eye: camera.position,
         };
-        let simd = self.kernel == Kernel::Auto;
-        shade::view_stage(&inputs, &rays, &self.visibility, simd, out);
+        shade::view_stage(&inputs, &rays, &self.visibility, self.simd, out);
         Ok(RenderStats {
+            seconds: start.elapsed().as_secs_f64(),
             light_s,
             material_s,
-            view_s: start.elapsed().as_secs_f64(),
-            raster_s,
-            clamped: shaded.clamped,
+            view_s: Some(view_start.elapsed().as_secs_f64()),
+            raster_s: Some(raster_s),
+            bytes_read: None,
         })
+    }
+
+    /// Chooses the view stage's inner loops (default [`crate::hooks::Kernel::Auto`]: AVX2
+    /// when the CPU has it); the frames are the same bit for bit, only the speed differs.
+    #[cfg(feature = "hooks")]
+    pub fn set_kernel(&mut self, kernel: crate::hooks::Kernel) {
+        self.simd = kernel == crate::hooks::Kernel::Auto;
+    }
+
+    /// RGB coefficient of every global slot for the current parameters, and whether any
+    /// parameter lay outside its basis' sampled range (and was clamped).
+    #[cfg(feature = "hooks")]
+    pub fn coefficients(&self) -> (Vec<[f32; 3]>, bool) {
+        self.materials.coefficients()
+    }
+
+    /// The light arriving at mesh vertex `vertex` for the current environment and materials
+    /// (running the light and material stages if needed); `None` for a vertex out of range or
+    /// in no group.
+    #[cfg(feature = "hooks")]
+    pub fn vertex_incident(
+        &mut self,
+        vertex: usize,
+    ) -> Result<Option<incident::VertexIncident>, RuntimeError> {
+        self.ensure_light()?;
+        self.ensure_shaded();
+        let Some(&(g, local)) = self.scene.vertex_group.get(vertex) else {
+            return Ok(None);
+        };
+        let Some(shaded) = &self.shaded else {
+            return Ok(None);
+        };
+        Ok(incident::VertexIncident::of(&shaded.groups, g, local))
     }
 
     /// Refuses an eye inside an object (checked once per eye position).
@@ -469,7 +520,9 @@ impl VertexRelighter {
         }
         let start = Instant::now();
         let coefficients = light_coefficients(
-            &self.environment,
+            self.scaled_environment
+                .as_ref()
+                .unwrap_or(&self.environment),
             self.rotation_deg,
             &self.prefilter_widths,
             &mut self.prefiltered_unturned,
@@ -491,7 +544,8 @@ impl VertexRelighter {
         }
         let light = self.light.as_ref()?;
         let start = Instant::now();
-        let (coeff, mut clamped) = self.materials.coefficients();
+        // Whether a parameter was clamped is told by `MaterialInfo` (its sampled range).
+        let (coeff, _) = self.materials.coefficients();
         let groups = incident::material_stage(
             &self.meta,
             &self.scene,
@@ -509,7 +563,7 @@ impl VertexRelighter {
             lobes.push(basis.map(|b| {
                 let sb = &self.scene.shading[b];
                 let mut uh = [0.0f32; prt_formats::basis::MAX_SHADING_RANK];
-                clamped |= sb.u_h_row(p.param, &mut uh);
+                sb.u_h_row(p.param, &mut uh);
                 let mut core = vec![0.0f32; sb.ranks.o * sb.ranks.i];
                 sb.contract_core(&uh, &mut core);
                 Lobe {
@@ -519,13 +573,38 @@ impl VertexRelighter {
                 }
             }));
         }
-        self.shaded = Some(ShadeState {
-            groups,
-            lobes,
-            clamped,
-        });
+        self.shaded = Some(ShadeState { groups, lobes });
         Some(start.elapsed().as_secs_f64())
     }
+}
+
+/// The camera a bake was made with, as a frame (right = forward x up).
+fn default_camera(meta: &VertexBakeMeta) -> CameraFrame {
+    let c = &meta.camera;
+    let (f, u) = (c.forward, c.up);
+    let r = [
+        f[1] * u[2] - f[2] * u[1],
+        f[2] * u[0] - f[0] * u[2],
+        f[0] * u[1] - f[1] * u[0],
+    ];
+    let len = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt();
+    CameraFrame {
+        position: c.position,
+        forward: f,
+        right: r.map(|x| x / len),
+        up: u,
+        yfov: c.yfov,
+    }
+}
+
+/// `map` times `intensity` (checked as `LatLongMap::new` checks a map), or `None` at 1, where
+/// the map lights the scene as it is.
+fn scaled(map: &LatLongMap, intensity: f32) -> Result<Option<LatLongMap>, RuntimeError> {
+    if intensity == 1.0 {
+        return Ok(None);
+    }
+    let (map, _) = LatLongMap::new(map.width, map.height, map.texels.clone(), intensity)?;
+    Ok(Some(map))
 }
 
 fn check_rotation(rotation_deg: f32) -> Result<(), RuntimeError> {
@@ -540,7 +619,7 @@ fn check_rotation(rotation_deg: f32) -> Result<(), RuntimeError> {
 }
 
 /// The light coefficients of `map` turned `rotation_deg`, with the prefiltered cubes of
-/// `widths` (nonzero, degrees) of the map **unturned** (`crate::light::prefiltered`), computed
+/// `widths` (nonzero, degrees) of the map **unturned** (`light::prefiltered`), computed
 /// when `unturned` does not hold them yet, and kept there.
 ///
 /// Why unturned: the prefilter is a convolution with a kernel that depends only on the angle

@@ -15,7 +15,6 @@ use prt_formats::{BakeFile, Dtype};
 
 use super::clustered::{validate_group, CompressedLayout};
 use crate::error::RuntimeError;
-use crate::light::DIRECT_SIZE;
 
 /// Marks a vertex that belongs to no group.
 pub(super) const NO_GROUP: u32 = u32::MAX;
@@ -84,9 +83,9 @@ pub(super) fn validate(file: &BakeFile) -> Result<(VertexBakeMeta, Scene), Runti
                 path: path.clone(),
                 kind: BakeKind::Pixel.describe(),
                 expected: BakeKind::Vertex.describe(),
-                hint: "relight it with the per-pixel runtime (prt_runtime::Relighter; \
-                       `relight` chooses it by itself): its light and view are frozen, only \
-                       materials can be edited",
+                hint: "open it with prt_runtime::open or PixelRelighter (`relight` chooses \
+                       the kind by itself): its light and view are frozen, only materials can \
+                       be edited",
             })
         }
         None => {
@@ -283,7 +282,7 @@ pub(super) fn validate(file: &BakeFile) -> Result<(VertexBakeMeta, Scene), Runti
 
     // Shading bases: tables back from their tensors, then the basis' own checks.
     let mut shading = Vec::with_capacity(meta.shading.len());
-    let min_width = prefilter::min_width(DIRECT_SIZE).to_degrees();
+    let min_width = prefilter::min_width(DIRECT_CUBE).to_degrees();
     for (b, sm) in meta.shading.iter().enumerate() {
         let mut basis = sm.basis.clone();
         for (table, slot) in shading_tables_mut(&mut basis) {
@@ -308,7 +307,7 @@ pub(super) fn validate(file: &BakeFile) -> Result<(VertexBakeMeta, Scene), Runti
         {
             return Err(schema(format!(
                 "shading basis {b}: split width {w} degrees is narrower than the \
-                 {min_width:.2} degrees a 6x{DIRECT_SIZE}x{DIRECT_SIZE} environment can be \
+                 {min_width:.2} degrees a 6x{DIRECT_CUBE}x{DIRECT_CUBE} environment can be \
                  prefiltered at"
             )));
         }

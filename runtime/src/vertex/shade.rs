@@ -39,10 +39,11 @@ use prt_formats::BakeFile;
 use rayon::prelude::*;
 
 use super::incident::{GroupShade, E_AT, I1_AT, I2_AT, U_AT};
+use super::light::LightCoefficients;
 use super::open::Scene;
+use super::raster::{Fragment, VisibilityBuffer};
+use super::view::ViewRays;
 use crate::error::RuntimeError;
-use crate::light::LightCoefficients;
-use crate::raster::{Fragment, ViewRays, VisibilityBuffer};
 
 /// The longest vertex record (`U_AT + 3 MAX_SHADING_RANK`).
 const MAX_RECORD: usize = U_AT + 3 * MAX_SHADING_RANK;

@@ -13,7 +13,7 @@ use prt_formats::pixel::{
 };
 use prt_formats::{BakeWriter, Family};
 
-use prt_runtime::{Relighter, RuntimeError, Variant};
+use prt_runtime::RuntimeError;
 
 /// A 1 x 1 gray bake of one diffuse material (Kd 0.5) seen by its one pixel, direct light only.
 fn meta() -> PixelBakeMeta {
@@ -86,8 +86,8 @@ fn absurd_reflections_relight_at_the_cost_of_the_row() {
     let dir = tempfile::tempdir().unwrap();
     let path = write(&dir, &m, 1, &[0]);
     let start = Instant::now();
-    let frame = Relighter::open(&path)
-        .and_then(|r| r.render(Variant::Full))
+    let frame = prt_runtime::open(&path)
+        .and_then(|mut r| r.render())
         .unwrap();
     let seconds = start.elapsed().as_secs_f64();
     assert_eq!(frame.pixels, [[0.5; 3]]);
@@ -105,7 +105,7 @@ fn groups_without_pixels_are_refused() {
     m.groups[0].pixels = 0;
     let dir = tempfile::tempdir().unwrap();
     let path = write(&dir, &m, u32::MAX as usize, &[]);
-    let err = Relighter::open(&path).err();
+    let err = prt_runtime::open(&path).err();
     match err {
         Some(RuntimeError::Schema { reason, .. }) => {
             assert!(reason.contains("no pixels"), "{reason}")
@@ -124,7 +124,7 @@ fn unordered_pixel_indices_are_refused() {
     m.groups[0].pixels = 2;
     let dir = tempfile::tempdir().unwrap();
     let path = write(&dir, &m, 1, &[8, 0]);
-    let err = Relighter::open(&path).err();
+    let err = prt_runtime::open(&path).err();
     match err {
         Some(RuntimeError::Schema { reason, .. }) => {
             assert!(reason.contains("strictly ascending"), "{reason}")
@@ -148,7 +148,7 @@ fn materials_outside_the_groups_must_name_existing_bases() {
     m.materials.push(glossy);
     let dir = tempfile::tempdir().unwrap();
     let path = write(&dir, &m, 1, &[0]);
-    let err = Relighter::open(&path).err();
+    let err = prt_runtime::open(&path).err();
     match err {
         Some(RuntimeError::Schema { reason, .. }) => {
             assert!(
@@ -189,7 +189,7 @@ fn bases_with_unordered_samples_are_refused() {
     }];
     let dir = tempfile::tempdir().unwrap();
     let path = write(&dir, &m, 1, &[0]);
-    let err = Relighter::open(&path).err();
+    let err = prt_runtime::open(&path).err();
     match err {
         Some(RuntimeError::Schema { reason, .. }) => {
             assert!(reason.contains("strictly increasing"), "{reason}")
@@ -209,7 +209,7 @@ fn channel_counts_other_than_1_or_3_are_refused() {
         m.groups[0].row_len = channels;
         let dir = tempfile::tempdir().unwrap();
         let path = write(&dir, &m, channels as usize, &[0]);
-        match Relighter::open(&path).and_then(|r| r.render(Variant::Full)) {
+        match prt_runtime::open(&path).and_then(|mut r| r.render()) {
             Err(RuntimeError::Schema { reason, .. }) => {
                 assert!(reason.contains("channels"), "{channels}: {reason}")
             }

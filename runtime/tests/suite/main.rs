@@ -2,8 +2,8 @@
 //! baker): one test binary, one module per concern.
 
 mod edits;
+mod face;
 mod fuzzed;
-mod raster;
 mod relight;
 mod synthetic;
 mod validation;

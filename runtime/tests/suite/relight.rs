@@ -3,9 +3,21 @@
 //! count.
 
 use prt_formats::pixel::Precision;
-use prt_runtime::{Kernel, Relighter, Variant};
+use prt_runtime::hooks::Kernel;
+use prt_runtime::{Image, OverrideValue, PixelRelighter, RenderStats, RuntimeError, Variant};
 
 use crate::synthetic::{Synthetic, H, W};
+
+/// The frame of variant `v`, rendered into an owned image, and its stats.
+pub fn frame(r: &mut PixelRelighter, v: Variant) -> (Image, RenderStats) {
+    r.set_variant(v).expect("variant");
+    let (width, height) = r.size();
+    let mut image = Image::new(width, height);
+    let stats = r
+        .render_into(image.pixels.as_flattened_mut())
+        .expect("render");
+    (image, stats)
+}
 
 /// Largest per-pixel error relative to the image's largest value (a scale-aware bound for f32
 /// sums of ~100 terms).
@@ -24,21 +36,21 @@ fn max_rel_err(frame: &[[f32; 3]], expect: &[[f64; 3]]) -> f64 {
 }
 
 /// Both kernels' full frames against the plain f64 sum of the stored f32 values.
-fn full_frames_equal_the_plain_sum(s: &Synthetic, r: &mut Relighter) {
+fn full_frames_equal_the_plain_sum(s: &Synthetic, r: &mut PixelRelighter) {
     let expect = s.relight(&s.params(), false, None);
     for kernel in [Kernel::Auto, Kernel::Scalar] {
         r.set_kernel(kernel);
-        let f = r.render(Variant::Full).expect("render");
+        let (f, _) = frame(r, Variant::Full);
         let err = max_rel_err(&f.pixels, &expect);
         assert!(err < 2e-6, "{kernel:?}: max error {err:e}");
     }
 }
 
-fn open(s: &Synthetic, precision: Precision) -> (tempfile::TempDir, Relighter) {
+fn open(s: &Synthetic, precision: Precision) -> (tempfile::TempDir, PixelRelighter) {
     let dir = tempfile::tempdir().expect("tempdir");
     let path = dir.path().join("synthetic.prtbake");
     s.write(&path, precision);
-    let r = Relighter::open(&path).expect("open synthetic bake");
+    let r = PixelRelighter::open(&path).expect("open synthetic bake");
     (dir, r)
 }
 
@@ -48,7 +60,7 @@ fn full_frames_equal_the_plain_sum_for_f32_and_f16_gray_and_rgb() {
         let s = Synthetic::new(channels, None, 11 + channels as u64);
         for precision in [Precision::F32, Precision::F16] {
             let (_dir, mut r) = open(&s, precision);
-            assert_eq!((r.width(), r.height()), (W, H));
+            assert_eq!(r.size(), (W, H));
             let values = match precision {
                 Precision::F32 => None,
                 Precision::F16 => Some(s.f16_values()),
@@ -56,7 +68,7 @@ fn full_frames_equal_the_plain_sum_for_f32_and_f16_gray_and_rgb() {
             let expect = s.relight(&s.params(), false, values.as_deref());
             for kernel in [Kernel::Auto, Kernel::Scalar] {
                 r.set_kernel(kernel);
-                let f = r.render(Variant::Full).expect("render");
+                let (f, _) = frame(&mut r, Variant::Full);
                 assert_eq!((f.width, f.height), (W, H));
                 let err = max_rel_err(&f.pixels, &expect);
                 assert!(
@@ -72,13 +84,13 @@ fn full_frames_equal_the_plain_sum_for_f32_and_f16_gray_and_rgb() {
 fn compressed_frames_equal_the_plain_low_rank_sum() {
     for channels in [1, 3] {
         let s = Synthetic::new(channels, Some(3), 5);
-        let (_dir, r) = open(&s, Precision::F32);
+        let (_dir, mut r) = open(&s, Precision::F32);
         assert!(r.has_compressed());
-        let f = r.render(Variant::Compressed).expect("render compressed");
+        let (f, _) = frame(&mut r, Variant::Compressed);
         let err = max_rel_err(&f.pixels, &s.relight(&s.params(), true, None));
         assert!(err < 2e-6, "channels {channels}: max error {err:e}");
         // The full variant is still the stored rows, not the low-rank ones.
-        let full = r.render(Variant::Full).expect("render full");
+        let (full, _) = frame(&mut r, Variant::Full);
         let err = max_rel_err(&full.pixels, &s.relight(&s.params(), false, None));
         assert!(err < 2e-6, "channels {channels}, full: max error {err:e}");
     }
@@ -87,7 +99,7 @@ fn compressed_frames_equal_the_plain_low_rank_sum() {
 #[test]
 fn frames_report_the_bytes_they_read() {
     let s = Synthetic::new(3, Some(2), 3);
-    let (_dir, r) = open(&s, Precision::F32);
+    let (_dir, mut r) = open(&s, Precision::F32);
     let emission = (W * H * 3 * 4) as u64;
     // The pixel lists are not read per frame: their runs are found when the file is opened.
     let full: u64 = s.groups.iter().map(|g| g.transfer.len() as u64 * 4).sum();
@@ -99,31 +111,32 @@ fn frames_report_the_bytes_they_read() {
             (m.len() + c.len() + z.len()) as u64 * 4
         })
         .sum();
-    let f = r.render(Variant::Full).expect("render");
-    assert_eq!(f.bytes_read, emission + full);
+    let (_, f) = frame(&mut r, Variant::Full);
+    assert_eq!(f.bytes_read, Some(emission + full));
     assert!(f.seconds >= 0.0 && f.seconds.is_finite());
-    let c = r.render(Variant::Compressed).expect("render");
-    assert_eq!(c.bytes_read, emission + low);
-    let (_dir16, r16) = open(&s, Precision::F16);
-    let h = r16.render(Variant::Full).expect("render");
-    assert_eq!(h.bytes_read, emission + full / 2);
+    let (_, c) = frame(&mut r, Variant::Compressed);
+    assert_eq!(c.bytes_read, Some(emission + low));
+    let (_dir16, mut r16) = open(&s, Precision::F16);
+    let (_, h) = frame(&mut r16, Variant::Full);
+    assert_eq!(h.bytes_read, Some(emission + full / 2));
 }
 
 #[test]
 fn frames_are_identical_on_any_thread_count() {
     let s = Synthetic::new(3, Some(2), 9);
-    let (_dir, r) = open(&s, Precision::F16);
-    let render = |threads: usize, v: Variant| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .expect("pool")
-            .install(|| r.render(v).expect("render").pixels)
-    };
+    let (_dir, mut r) = open(&s, Precision::F16);
     for v in [Variant::Full, Variant::Compressed] {
-        let one = render(1, v);
+        r.set_variant(v).expect("variant");
+        let render = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("pool")
+                .install(|| r.render().expect("render").pixels)
+        };
+        let one = render(1);
         for t in [2, 5] {
-            assert!(one == render(t, v), "{v:?}: 1 and {t} threads differ");
+            assert!(one == render(t), "{v:?}: 1 and {t} threads differ");
         }
     }
 }
@@ -156,28 +169,26 @@ fn runs_across_blocks_and_bands_relight_exactly() {
 }
 
 #[test]
-fn render_into_overwrites_whatever_the_frame_held() {
-    // A reused frame is overwritten, never cleared first: stale or poisoned pixels of the same
-    // size must not leak into the next frame, and a frame of another size is resized.
-    let s = Synthetic::spans(160, 20, 22);
-    let (_dir, r) = open(&s, Precision::F32);
-    let fresh = r.render(Variant::Full).expect("render");
-    for held in [vec![[f32::NAN; 3]; 160 * 20], vec![[7.0; 3]; 5], Vec::new()] {
-        let mut frame = prt_runtime::Frame {
-            pixels: held,
-            ..Default::default()
-        };
-        r.render_into(Variant::Full, &mut frame)
-            .expect("render into");
-        assert_eq!((frame.width, frame.height), (160, 20));
-        assert!(
-            frame.pixels.iter().flatten().map(|v| v.to_bits()).eq(fresh
-                .pixels
-                .iter()
-                .flatten()
-                .map(|v| v.to_bits())),
-            "render_into differs from render"
-        );
+fn render_into_overwrites_whatever_the_buffer_held() {
+    // A caller's buffer is overwritten, never read: stale or poisoned floats must not leak
+    // into the frame, which equals the owned render bit for bit, for both variants.
+    let s = Synthetic::new(3, Some(2), 22);
+    let (_dir, mut r) = open(&s, Precision::F32);
+    for v in [Variant::Full, Variant::Compressed] {
+        r.set_variant(v).expect("variant");
+        let owned = r.render().expect("render");
+        for poison in [f32::NAN, 7.0, -0.0] {
+            let mut out = vec![poison; 3 * (W * H) as usize];
+            r.render_into(&mut out).expect("render into");
+            assert!(
+                out.iter().map(|v| v.to_bits()).eq(owned
+                    .pixels
+                    .as_flattened()
+                    .iter()
+                    .map(|v| v.to_bits())),
+                "{v:?}: render_into over {poison} differs from render"
+            );
+        }
     }
 }
 
@@ -187,8 +198,8 @@ fn columns_of_zero_weight_are_neither_read_nor_counted() {
     // pass through paint's slot: those columns are skipped, and the byte count says so.
     let s = Synthetic::new(3, None, 4);
     let (_dir, mut r) = open(&s, Precision::F32);
-    r.apply(&prt_formats::parse_override("paint.kd=0,0,0").expect("edit"))
-        .expect("apply");
+    r.set_params("paint", &[OverrideValue::Kd([0.0; 3])])
+        .expect("edit");
     let mut p = s.params();
     p[1].kd = [0.0; 3];
     let coeff = s.coefficients(&p);
@@ -209,8 +220,8 @@ fn columns_of_zero_weight_are_neither_read_nor_counted() {
         read < all,
         "the edit should zero some columns ({read} of {all} bytes)"
     );
-    let f = r.render(Variant::Full).expect("render");
-    assert_eq!(f.bytes_read, (W * H * 3 * 4) as u64 + read);
+    let (f, stats) = frame(&mut r, Variant::Full);
+    assert_eq!(stats.bytes_read, Some((W * H * 3 * 4) as u64 + read));
     let err = max_rel_err(&f.pixels, &s.relight(&p, false, None));
     assert!(err < 2e-6, "max error {err:e}");
 }
@@ -218,33 +229,40 @@ fn columns_of_zero_weight_are_neither_read_nor_counted() {
 #[test]
 fn time_reads_reads_what_a_frame_reads_and_changes_nothing() {
     let s = Synthetic::new(3, Some(2), 23);
-    let (_dir, r) = open(&s, Precision::F16);
+    let (_dir, mut r) = open(&s, Precision::F16);
     let mut scratch = Vec::new();
     for v in [Variant::Full, Variant::Compressed] {
-        let before = r.render(v).expect("render");
-        let pass = r.time_reads(v, &mut scratch).expect("reads");
-        assert_eq!(pass.bytes_read, before.bytes_read, "{v:?}");
+        let (before, stats) = frame(&mut r, v);
+        let pass = r.time_reads(&mut scratch).expect("reads");
+        assert_eq!(Some(pass.bytes_read), stats.bytes_read, "{v:?}");
         assert!(pass.seconds >= 0.0 && pass.seconds.is_finite());
-        assert_eq!(scratch.len(), before.pixels.len(), "{v:?}: scratch reused");
+        assert_eq!(
+            scratch.len(),
+            3 * before.pixels.len(),
+            "{v:?}: scratch reused"
+        );
         // The reads-only pass sums unweighted values into the first channel only: not the
         // frame, and (uncompressed, where pixels start from nothing but their emission) the
         // other two channels keep the emission, on the vector path and the portable tail.
-        assert!(scratch != before.pixels, "{v:?}: the pass made the frame");
+        assert!(
+            scratch != before.pixels.as_flattened(),
+            "{v:?}: the pass made the frame"
+        );
         if v == Variant::Full {
-            for (p, e) in scratch.iter().zip(s.emission.chunks_exact(3)) {
+            for (p, e) in scratch.chunks_exact(3).zip(s.emission.chunks_exact(3)) {
                 assert_eq!([p[1], p[2]], [e[1], e[2]], "weights were applied");
             }
         }
-        let after = r.render(v).expect("render");
+        let (after, _) = frame(&mut r, v);
         assert!(
             after.pixels == before.pixels,
             "{v:?}: the pass changed a frame"
         );
     }
-    let (_dir, plain) = open(&Synthetic::new(1, None, 3), Precision::F32);
+    let (_dir, mut plain) = open(&Synthetic::new(1, None, 3), Precision::F32);
     assert!(matches!(
-        plain.time_reads(Variant::Compressed, &mut scratch),
-        Err(prt_runtime::RuntimeError::NoCompressed)
+        plain.set_variant(Variant::Compressed),
+        Err(RuntimeError::NoCompressed)
     ));
 }
 
@@ -266,8 +284,8 @@ fn only_emitting_pixels_are_read_and_negative_zero_is_kept() {
     let expect = s.relight(&s.params(), false, None);
     for kernel in [Kernel::Auto, Kernel::Scalar] {
         r.set_kernel(kernel);
-        let f = r.render(Variant::Full).expect("render");
-        assert_eq!(f.bytes_read, emitting * 12 + full, "{kernel:?}");
+        let (f, stats) = frame(&mut r, Variant::Full);
+        assert_eq!(stats.bytes_read, Some(emitting * 12 + full), "{kernel:?}");
         let err = max_rel_err(&f.pixels, &expect);
         assert!(err < 2e-6, "{kernel:?}: max error {err:e}");
         assert_eq!(f.pixels[14].map(f32::to_bits), [(-0.0f32).to_bits(); 3]);

@@ -1,9 +1,9 @@
-//! `Relighter::open` refuses a file that is a valid container but not a consistent per-pixel
+//! `prt_runtime::open` refuses a file that is a valid container but not a consistent per-pixel
 //! bake, one corruption at a time, with a reason naming it; the uncorrupted file and the
 //! boundary values (last pixel, last slot) open.
 
 use prt_formats::pixel::Precision;
-use prt_runtime::{Relighter, RuntimeError};
+use prt_runtime::{PixelRelighter, RuntimeError};
 
 use crate::synthetic::{Synthetic, H, W};
 
@@ -12,7 +12,7 @@ fn refused(s: &Synthetic, precision: Precision) -> (String, RuntimeError) {
     let dir = tempfile::tempdir().expect("tempdir");
     let path = dir.path().join("bad.prtbake");
     s.write(&path, precision);
-    match Relighter::open(&path) {
+    match prt_runtime::open(&path) {
         Ok(_) => panic!("a corrupt bake opened"),
         Err(e) => (e.to_string(), e),
     }
@@ -32,7 +32,7 @@ fn the_uncorrupted_bake_and_its_boundary_values_open() {
     for precision in [Precision::F32, Precision::F16] {
         let path = dir.path().join("good.prtbake");
         s.write(&path, precision);
-        let r = Relighter::open(&path).expect("the uncorrupted bake opens");
+        let r = PixelRelighter::open(&path).expect("the uncorrupted bake opens");
         assert_eq!(r.meta().groups.len(), 3);
         assert_eq!(r.meta().precision, precision);
     }

@@ -16,7 +16,7 @@ use half::f16;
 use prt_formats::basis::{HemiGrid, ParamWarp, ShadingBasis, TuckerRanks, SHADING_SCHEMA_VERSION};
 use prt_formats::pixel::Precision;
 use prt_formats::Family;
-use prt_runtime::vertex::VertexRelighter;
+use prt_runtime::VertexRelighter;
 
 use crate::common::*;
 
@@ -151,22 +151,19 @@ fn bench_stage_costs() {
     let (w, h) = (512, 512);
     let mut out = vec![0.0f32; 3 * w * h];
     let mut run = |r: &mut VertexRelighter, what: &str| {
-        let s = r
-            .render(&cam, w as u32, h as u32, &mut out)
-            .expect("render");
+        let s = frame(r, &cam, w as u32, h as u32, &mut out).expect("render");
         println!(
             "{what:<28} light {:>8} material {:>8} view {:>8.1} ms",
             s.light_s
                 .map_or("-".into(), |x| format!("{:.1} ms", x * 1e3)),
             s.material_s
                 .map_or("-".into(), |x| format!("{:.1} ms", x * 1e3)),
-            s.view_s * 1e3
+            s.view_s.unwrap_or(0.0) * 1e3
         );
     };
     run(&mut r, "first frame (all stages)");
     run(&mut r, "view only");
-    r.apply(&"metal.kd=0.9,0.2,0.2".parse().expect("override"))
-        .expect("edit");
+    set(&mut r, "metal.kd=0.9,0.2,0.2").expect("edit");
     run(&mut r, "material edit");
     r.set_environment_rotation(45.0).expect("rotation");
     run(&mut r, "rotation (light)");
@@ -184,7 +181,7 @@ fn bench_light_coefficients() {
         .0;
     for widths in [vec![], vec![7.0], vec![14.0], vec![21.0]] {
         let t = Instant::now();
-        prt_runtime::light::LightCoefficients::from_latlong(&map, 10.0, &widths).expect("light");
+        prt_runtime::hooks::LightCoefficients::from_latlong(&map, 10.0, &widths).expect("light");
         println!("{widths:?}: {:.1} ms", t.elapsed().as_secs_f64() * 1e3);
     }
 }

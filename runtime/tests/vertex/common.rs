@@ -16,6 +16,7 @@ use prt_formats::vertex::{
 };
 use prt_formats::view::{CameraFrame, CameraSpec};
 use prt_formats::{BakeWriter, Family};
+use prt_runtime::{RenderStats, RuntimeError, VertexRelighter};
 
 /// A triangle mesh.
 #[derive(Clone, Debug, Default)]
@@ -712,16 +713,30 @@ pub fn asymmetric_map(width: usize, height: usize) -> Vec<f32> {
     out
 }
 
-/// Renders and returns the RGB image.
-pub fn render(
-    r: &mut prt_runtime::vertex::VertexRelighter,
+/// Renders the view of `cam` at `w` x `h` into `out`: the camera and size set, then the frame.
+pub fn frame(
+    r: &mut VertexRelighter,
     cam: &CameraFrame,
     w: u32,
     h: u32,
-) -> Vec<f32> {
+    out: &mut [f32],
+) -> Result<RenderStats, RuntimeError> {
+    r.set_size(w, h)?;
+    r.set_camera(*cam)?;
+    r.render_into(out)
+}
+
+/// Renders and returns the RGB image.
+pub fn render(r: &mut VertexRelighter, cam: &CameraFrame, w: u32, h: u32) -> Vec<f32> {
     let mut out = vec![0.0f32; 3 * (w * h) as usize];
-    r.render(cam, w, h, &mut out).expect("render");
+    frame(r, cam, w, h, &mut out).expect("render");
     out
+}
+
+/// One `--set` edit of material `name`, as `relight` makes it.
+pub fn set(r: &mut VertexRelighter, edit: &str) -> Result<(), RuntimeError> {
+    let o: prt_formats::MaterialOverride = edit.parse().expect("valid --set syntax");
+    r.set_params(&o.material, &[o.value])
 }
 
 /// Where pixel `(x, y)`'s ray meets the plane through the origin with normal `n`
@@ -734,8 +749,7 @@ pub fn hit_plane(
     y: u32,
     n: [f32; 3],
 ) -> Option<[f64; 3]> {
-    let rays = prt_runtime::raster::ViewRays::new(cam, w, h).expect("rays");
-    let d = rays.pixel_direction(x, y).map(f64::from);
+    let d = pixel_direction(cam, w, h, x, y).map(f64::from);
     let e = cam.position.map(f64::from);
     let n = n.map(f64::from);
     let dn = d[0] * n[0] + d[1] * n[1] + d[2] * n[2];
@@ -745,4 +759,56 @@ pub fn hit_plane(
     }
     let t = -en / dn;
     (t > 0.0).then(|| std::array::from_fn(|i| e[i] + t * d[i]))
+}
+
+/// The unit view direction through the centre of pixel `(x, y)`, by the film formula of
+/// docs/conventions.md ("Camera"), in f64 and then rounded to f32 as the runtime's is.
+pub fn pixel_direction(cam: &CameraFrame, w: u32, h: u32, x: u32, y: u32) -> [f32; 3] {
+    let (fx, fy) = (f64::from(x) + 0.5, f64::from(y) + 0.5);
+    let (w, h) = (f64::from(w), f64::from(h));
+    let t = (f64::from(cam.yfov) * 0.5).tan();
+    let sx = (2.0 * fx / w - 1.0) * t * (w / h);
+    let sy = (1.0 - 2.0 * fy / h) * t;
+    let d: [f64; 3] = std::array::from_fn(|i| {
+        f64::from(cam.forward[i]) + f64::from(cam.right[i]) * sx + f64::from(cam.up[i]) * sy
+    });
+    let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    d.map(|c| (c / len) as f32)
+}
+
+/// A 12 x 12 glossy, textured grid (f16) under an asymmetric lat-long environment: the view
+/// stage's lobe, texture, visibility and background paths.
+pub fn glossy_grid() -> Bake {
+    let up = [0.0, 1.0, 0.0];
+    let basis = constant_basis(0.06, [0.2, 0.1, 0.05, 0.05], true);
+    let mesh = Mesh::grid(12, up, 0);
+    let nv = mesh.positions.len();
+    let row = t0_rows(up, Some(&basis));
+    let rows: Vec<_> = (0..nv).map(|_| row.clone()).collect();
+    let mut g = Group::new((0..nv as u32).collect(), &rows, 3, 2, 1);
+    for (k, x) in g.t1.iter_mut().chain(g.t2.iter_mut()).enumerate() {
+        *x = 0.01 * (k % 5) as f32;
+    }
+    for (k, v) in g.visibility.iter_mut().enumerate() {
+        *v = ((k * 7) % 256) as u8;
+    }
+    // The second material has no triangles; it gives the group the slot count of the
+    // vertex tests' busy bake.
+    let materials = vec![
+        material("metal", Family::Ggx, [0.3, 0.4, 0.2], [0.8, 0.6, 0.4], 0.3),
+        material("wall", Family::Diffuse, [0.6, 0.2, 0.2], [0.0; 3], 0.0),
+    ];
+    let mut bake = Bake::new(
+        mesh,
+        materials,
+        vec![(0, g, Some(0))],
+        vec![basis],
+        [1.0; 3],
+    );
+    bake.meta.precision = Precision::F16;
+    bake.meta.reflections = 3;
+    bake.set_latlong(64, 32, asymmetric_map(64, 32), 10.0);
+    let texels = (0..8 * 8 * 3).map(|k| 0.2 + 0.1 * (k % 7) as f32).collect();
+    bake.set_texture(0, 8, 8, texels);
+    bake
 }

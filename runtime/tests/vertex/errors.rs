@@ -4,14 +4,10 @@
 
 use prt_formats::pixel::Precision;
 use prt_formats::Family;
-use prt_runtime::vertex::VertexRelighter;
-use prt_runtime::{Relighter, RuntimeError};
+use prt_runtime::{OverrideValue, PixelRelighter, RuntimeError, VertexRelighter};
 
 use crate::common::*;
-
-#[allow(dead_code)]
-#[path = "../suite/synthetic.rs"]
-mod pixel_synthetic;
+use crate::pixel_synthetic;
 
 const UP: [f32; 3] = [0.0, 1.0, 0.0];
 
@@ -117,14 +113,14 @@ fn a_bake_of_the_other_kind_is_refused_with_what_to_use() {
         Err(e @ RuntimeError::WrongKind { .. }) => {
             let msg = e.to_string();
             assert!(
-                msg.contains("per-pixel bake, not a per-vertex") && msg.contains("Relighter"),
+                msg.contains("per-pixel bake, not a per-vertex") && msg.contains("PixelRelighter"),
                 "{msg}"
             );
         }
         Err(e) => panic!("wrong error: {e}"),
         Ok(_) => panic!("a per-pixel bake opened as per-vertex"),
     }
-    match Relighter::open(&vertex) {
+    match PixelRelighter::open(&vertex) {
         Err(e @ RuntimeError::WrongKind { .. }) => {
             let msg = e.to_string();
             assert!(
@@ -136,7 +132,7 @@ fn a_bake_of_the_other_kind_is_refused_with_what_to_use() {
         Ok(_) => panic!("a per-vertex bake opened as per-pixel"),
     }
     // Each still opens with its own runtime.
-    Relighter::open(&pixel).expect("pixel bake");
+    PixelRelighter::open(&pixel).expect("pixel bake");
     VertexRelighter::open(&vertex).expect("vertex bake");
 }
 
@@ -269,16 +265,21 @@ fn bad_cameras_and_outputs_are_refused_and_nothing_is_written() {
     zero_fov.yfov = 0.0;
     let mut nan_eye = good;
     nan_eye.position[0] = f32::NAN;
+    r.set_size(8, 8).expect("size");
+    r.set_camera(good).expect("camera");
     for (cam, words) in [(zero_fov, "field of view"), (nan_eye, "not finite")] {
-        let e = r.render(&cam, 8, 8, &mut out).expect_err("bad camera");
+        let e = r.set_camera(cam).expect_err("bad camera");
         assert!(e.to_string().contains(words), "{e}");
+        assert_eq!(r.camera(), good, "a refused camera was kept");
     }
-    let e = r
-        .render(&good, 8, 9, &mut out)
-        .expect_err("wrong output size");
-    assert!(matches!(e, RuntimeError::OutputSize { .. }), "{e}");
-    let e = r.render(&good, 0, 8, &mut []).expect_err("empty image");
+    let e = r.set_size(0, 8).expect_err("empty image");
     assert!(e.to_string().contains("0x8"), "{e}");
+    assert_eq!(r.size(), (8, 8), "a refused size was kept");
+    let e = r.set_size(8, 16385).expect_err("huge image");
+    assert!(e.to_string().contains("8x16385"), "{e}");
+    r.set_size(8, 9).expect("size");
+    let e = r.render_into(&mut out).expect_err("wrong output size");
+    assert!(matches!(e, RuntimeError::BufferSize { .. }), "{e}");
     assert!(out.iter().all(|&v| v == -7.0), "written on error");
 
     // An eye inside a closed box.
@@ -298,10 +299,10 @@ fn bad_cameras_and_outputs_are_refused_and_nothing_is_written() {
     }
     .frame()
     .expect("camera");
-    let e = r.render(&inside, 8, 8, &mut out).expect_err("eye inside");
+    let e = r.set_camera(inside).expect_err("eye inside");
     assert!(matches!(e, RuntimeError::EyeInside { .. }), "{e}");
     assert!(e.to_string().contains("inside 'crate'"), "{e}");
-    assert!(out.iter().all(|&v| v == -7.0), "written on error");
+    assert_eq!(r.camera(), r.default_camera(), "a refused camera was kept");
     // Outside, the box renders.
     render(&mut r, &camera([3.0, 2.0, 4.0], 50.0), 8, 8);
 }
@@ -313,45 +314,57 @@ fn bad_environments_and_edits_are_refused() {
     two_quads().write(&path);
     let mut r = VertexRelighter::open(&path).expect("open");
     let e = r
-        .set_environment_latlong(2, 1, vec![[1.0; 3], [f32::NAN, 0.0, 0.0]], 0.0)
+        .set_environment_texels(2, 1, &[1.0, 1.0, 1.0, f32::NAN, 0.0, 0.0])
         .expect_err("NaN texel");
     assert!(e.to_string().contains("NaN or infinite"), "{e}");
     let e = r
-        .set_environment_latlong(2, 2, vec![[1.0; 3]; 3], 0.0)
+        .set_environment_texels(2, 2, &[1.0; 9])
         .expect_err("texel count");
-    assert!(e.to_string().contains("3 texels for a 2x2"), "{e}");
+    assert!(
+        e.to_string()
+            .contains("environment's texels holds 9 floats; a 2x2 RGB image needs 12"),
+        "{e}"
+    );
     let e = r
         .set_environment_rotation(f32::INFINITY)
         .expect_err("rotation");
     assert!(e.to_string().contains("rotation"), "{e}");
+    for bad in [-1.0, f32::NAN, f32::INFINITY] {
+        let e = r.set_environment_intensity(bad).expect_err("bad intensity");
+        assert!(e.to_string().contains("intensity"), "{e}");
+        assert_eq!(
+            r.environment_intensity(),
+            1.0,
+            "a refused intensity was kept"
+        );
+    }
     let report = r
-        .set_environment_latlong(2, 1, vec![[1.0; 3], [-1.0, 0.5, 0.5]], 15.0)
+        .set_environment_texels(2, 1, &[1.0, 1.0, 1.0, -1.0, 0.5, 0.5])
         .expect("negative channels are clamped");
     assert_eq!(report.clamped_texels, 1);
 
-    let set = |s: &str| {
-        s.parse::<prt_formats::MaterialOverride>()
-            .expect("override")
-    };
     assert!(matches!(
-        r.apply(&set("stone.kd=0.1,0.1,0.1")),
+        set(&mut r, "stone.kd=0.1,0.1,0.1"),
         Err(RuntimeError::NotEditable { .. })
     ));
     assert!(matches!(
-        r.apply(&set("floor.alpha=0.2")),
+        set(&mut r, "floor.alpha=0.2"),
         Err(RuntimeError::WrongParam { .. })
     ));
     assert!(matches!(
-        r.apply(&set("nothing.kd=1")),
+        set(&mut r, "nothing.kd=1"),
         Err(RuntimeError::UnknownMaterial { .. })
     ));
-    let mut p = r.params("metal").expect("params");
-    p.ks = [-1.0, 0.0, 0.0];
-    let e = r.set_params("metal", p).expect_err("negative ks");
+    let e = r
+        .set_params("metal", &[OverrideValue::Ks([-1.0, 0.0, 0.0])])
+        .expect_err("negative ks");
+    assert!(matches!(e, RuntimeError::OutOfRange { .. }), "{e}");
     assert!(e.to_string().contains("ks"), "{e}");
-    p.ks = [0.5; 3];
-    p.param = 0.6;
-    r.set_params("metal", p).expect("good params");
+    r.set_params(
+        "metal",
+        &[OverrideValue::Ks([0.5; 3]), OverrideValue::Alpha(0.6)],
+    )
+    .expect("good params");
     assert_eq!(r.params("metal").expect("params").param, 0.6);
 }
 

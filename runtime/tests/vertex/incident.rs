@@ -1,13 +1,13 @@
 //! The light and material stages against sums written out here: T1 and T2 with one nonzero
-//! light bin per coefficient contracted with a known light (C1, C2 from `prt_runtime::light`,
-//! tested on its own) and known slot coefficients; T0 against the cube's irradiance integral
-//! under a rotated, asymmetric environment.
+//! light bin per coefficient contracted with a known light (C1, C2 from the runtime's
+//! `LightCoefficients`, tested on its own) and known slot coefficients; T0 against the cube's
+//! irradiance integral under a rotated, asymmetric environment.
 
 use prt_formats::pixel::Precision;
 use prt_formats::vertex::{cube_len, SH_TERMS, T1_LIGHT_CUBE, T2_LIGHT_CUBE};
 use prt_formats::Family;
-use prt_runtime::light::LightCoefficients;
-use prt_runtime::vertex::VertexRelighter;
+use prt_runtime::hooks::LightCoefficients;
+use prt_runtime::VertexRelighter;
 
 use crate::common::*;
 
@@ -216,8 +216,7 @@ fn material_edits_reweigh_the_slots_without_the_light_stage() {
         let want = kd * 2.0 * 384.0;
         assert!((i1[ch] - want).abs() <= 1e-3 * want, "{i1:?}");
     }
-    r.apply(&"wall.kd=1,0,0.5".parse().expect("override"))
-        .expect("edit");
+    set(&mut r, "wall.kd=1,0,0.5").expect("edit");
     let i1 = r
         .vertex_incident(0)
         .expect("stages")

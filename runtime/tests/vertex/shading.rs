@@ -7,7 +7,7 @@ use prt_formats::lighting::Face;
 use prt_formats::texture::sample_bilinear;
 use prt_formats::vertex::{to_local, vertex_frame, VISIBILITY_CUBE};
 use prt_formats::Family;
-use prt_runtime::vertex::VertexRelighter;
+use prt_runtime::VertexRelighter;
 
 use crate::common::*;
 

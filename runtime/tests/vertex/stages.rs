@@ -6,9 +6,8 @@
 use prt_formats::envmap::LatLongMap;
 use prt_formats::pixel::Precision;
 use prt_formats::Family;
-use prt_runtime::light::LightCoefficients;
-use prt_runtime::vertex::VertexRelighter;
-use prt_runtime::Kernel;
+use prt_runtime::hooks::{Kernel, LightCoefficients};
+use prt_runtime::VertexRelighter;
 
 use crate::common::*;
 
@@ -79,13 +78,13 @@ fn cached_stages_give_the_image_of_a_fresh_relighter_bit_for_bit() {
     busy_bake(&path);
     let cam1 = camera([0.4, 1.8, 2.2], 50.0);
     let cam2 = camera([-1.0, 1.2, 1.9], 60.0);
-    let edit = "metal.kd=0.9,0.1,0.5".parse().expect("override");
+    let edit = "metal.kd=0.9,0.1,0.5";
     let mut a = VertexRelighter::open(&path).expect("open");
     let mut out = vec![0.0f32; (3 * W * H) as usize];
-    let s = a.render(&cam1, W, H, &mut out).expect("render");
+    let s = frame(&mut a, &cam1, W, H, &mut out).expect("render");
     assert!(s.light_s.is_some() && s.material_s.is_some());
     // View only.
-    let s = a.render(&cam2, W, H, &mut out).expect("render");
+    let s = frame(&mut a, &cam2, W, H, &mut out).expect("render");
     assert!(s.light_s.is_none() && s.material_s.is_none(), "{s:?}");
     let fresh = |setup: &dyn Fn(&mut VertexRelighter)| {
         let mut b = VertexRelighter::open(&path).expect("open");
@@ -94,26 +93,26 @@ fn cached_stages_give_the_image_of_a_fresh_relighter_bit_for_bit() {
     };
     same_bits(&out, &fresh(&|_| {}), "view change");
     // Materials only.
-    a.apply(&edit).expect("edit");
-    let s = a.render(&cam2, W, H, &mut out).expect("render");
+    set(&mut a, edit).expect("edit");
+    let s = a.render_into(&mut out).expect("render");
     assert!(s.light_s.is_none() && s.material_s.is_some(), "{s:?}");
     same_bits(
         &out,
-        &fresh(&|b| b.apply(&edit).expect("edit")),
+        &fresh(&|b| set(b, edit).expect("edit")),
         "material change",
     );
     // Light: a rotation.
     a.set_environment_rotation(40.0).expect("rotation");
-    let s = a.render(&cam2, W, H, &mut out).expect("render");
+    let s = a.render_into(&mut out).expect("render");
     assert!(s.light_s.is_some() && s.material_s.is_some(), "{s:?}");
     let both = |b: &mut VertexRelighter| {
-        b.apply(&edit).expect("edit");
+        set(b, edit).expect("edit");
         b.set_environment_rotation(40.0).expect("rotation");
     };
     same_bits(&out, &fresh(&both), "light change");
     // An unchanged rotation keeps the light.
     a.set_environment_rotation(40.0).expect("rotation");
-    let s = a.render(&cam2, W, H, &mut out).expect("render");
+    let s = a.render_into(&mut out).expect("render");
     assert!(s.light_s.is_none() && s.material_s.is_none(), "{s:?}");
     // The image is not trivial: the surface shows and varies.
     let distinct: std::collections::BTreeSet<u32> = out.iter().map(|v| v.to_bits()).collect();
@@ -153,8 +152,7 @@ fn the_image_is_the_same_on_any_number_of_threads() {
         pool.install(|| {
             let mut r = VertexRelighter::open(&path).expect("open");
             let mut img = render(&mut r, &cam, W, H);
-            r.apply(&"metal.alpha=0.7".parse().expect("override"))
-                .expect("edit");
+            set(&mut r, "metal.alpha=0.7").expect("edit");
             img.extend(render(&mut r, &cam, W, H));
             let inc = r.vertex_incident(77).expect("stages").expect("vertex");
             img.extend(inc.one_bounce_sh.iter().flatten());

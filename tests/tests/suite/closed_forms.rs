@@ -17,8 +17,7 @@ use prt_bake::testing::{
     SPLIT_GEOMETRY,
 };
 use prt_formats::basis::BrdfBasis;
-use prt_formats::overrides::parse_override;
-use prt_runtime::{Relighter, Variant};
+use prt_runtime::PixelRelighter;
 use prt_tests::temp_path;
 
 /// Bakes `scene` at `size` with `spp` samples, `reflections` reflections and `seed`, writes
@@ -54,12 +53,11 @@ fn bake(
 
 /// Relights the bake at `path` with the `--set` edits.
 fn relight(path: &PathBuf, edits: &[String]) -> Vec<[f32; 3]> {
-    let mut r = Relighter::open(path).expect("open bake");
+    let mut r = PixelRelighter::open(path).expect("open bake");
     for e in edits {
-        r.apply(&parse_override(e).expect("override"))
-            .expect("apply");
+        prt_tests::edit_pixel(&mut r, e).expect("apply");
     }
-    r.render(Variant::Full).expect("relight").pixels
+    r.render().expect("relight").pixels
 }
 
 /// For each material, the pixels whose camera samples all hit it: no other group, and no

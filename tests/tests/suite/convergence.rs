@@ -23,7 +23,7 @@ use prt_bake::reference::render_true;
 use prt_bake::run::{apply_override, build_bases, load, BasisCount};
 use prt_bake::scene::Scene;
 use prt_formats::overrides::parse_override;
-use prt_runtime::{Relighter, Variant};
+use prt_runtime::PixelRelighter;
 use prt_tests::{assert_same_size, temp_path};
 
 type Image = Vec<[f32; 3]>;
@@ -129,7 +129,7 @@ fn check(case: &Case) {
         .collect();
     // Pixels whose camera samples hit each material first (a group of the bake holds them).
     let regions: Vec<(String, Vec<bool>)> = {
-        let r = Relighter::open(&paths[0]).expect("open");
+        let r = PixelRelighter::open(&paths[0]).expect("open");
         let file = prt_formats::BakeFile::open(&paths[0]).expect("file");
         let n = (case.size.0 * case.size.1) as usize;
         let mut out: Vec<(String, Vec<bool>)> = r
@@ -159,12 +159,11 @@ fn check(case: &Case) {
         let relit: Vec<Image> = paths
             .iter()
             .map(|path| {
-                let mut r = Relighter::open(path).expect("open");
+                let mut r = PixelRelighter::open(path).expect("open");
                 for e in *edits {
-                    r.apply(&parse_override(e).expect("override"))
-                        .expect("apply");
+                    prt_tests::edit_pixel(&mut r, e).expect("apply");
                 }
-                r.render(Variant::Full).expect("relight").pixels
+                r.render().expect("relight").pixels
             })
             .collect();
         for e in *edits {

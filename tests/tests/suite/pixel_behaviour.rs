@@ -7,15 +7,14 @@ use prt_bake::pixel::Precision;
 use prt_bake::testing::SceneBuilder;
 use prt_formats::overrides::parse_override;
 use prt_formats::pixel::PixelBakeMeta;
-use prt_runtime::{Relighter, RuntimeError, Variant};
+use prt_runtime::{PixelRelighter, RuntimeError, Variant};
 use prt_tests::{
     assert_same_size, bake_to_file, bases_for, relative_l2, small_options, temp_path, test_scene,
 };
 
-fn set(r: &mut Relighter, edits: &[&str]) {
+fn set(r: &mut PixelRelighter, edits: &[&str]) {
     for e in edits {
-        r.apply(&parse_override(e).expect("override"))
-            .expect("apply");
+        prt_tests::edit_pixel(r, e).expect("apply");
     }
 }
 
@@ -31,10 +30,10 @@ fn direct_only_edit_changes_exactly_the_objects_pixels() {
         &small_options(32, 24, 4, 1, Precision::F32),
         "local1.prtbake",
     );
-    let mut r = Relighter::open(&path).expect("open");
-    let before = r.render(Variant::Full).expect("render").pixels;
+    let mut r = PixelRelighter::open(&path).expect("open");
+    let before = r.render().expect("render").pixels;
     set(&mut r, &["shiny.kd=0.9,0.9,0.1", "shiny.shininess=5"]);
-    let after = r.render(Variant::Full).expect("render").pixels;
+    let after = r.render().expect("render").pixels;
     let meta = r.meta();
     let shiny = meta
         .materials
@@ -153,10 +152,10 @@ fn indirect_edit_leaves_pixels_without_its_light_unchanged() {
         &small_options(32, 24, 32, 2, Precision::F32),
         "local2.prtbake",
     );
-    let mut r = Relighter::open(&path).expect("open");
-    let before = r.render(Variant::Full).expect("render").pixels;
+    let mut r = PixelRelighter::open(&path).expect("open");
+    let before = r.render().expect("render").pixels;
     set(&mut r, &["block.kd=0.1,0.9,0.2"]);
-    let after = r.render(Variant::Full).expect("render").pixels;
+    let after = r.render().expect("render").pixels;
 
     // Which pixels' rows involve the block (seen directly or through a bounce)?
     let meta: &PixelBakeMeta = r.meta();
@@ -274,12 +273,12 @@ fn hard_settings_give_finite_images() {
             ),
         ];
         for (edits, bound) in cases {
-            let mut a = Relighter::open(&p16).expect("open f16");
-            let mut b = Relighter::open(&p32).expect("open f32");
+            let mut a = PixelRelighter::open(&p16).expect("open f16");
+            let mut b = PixelRelighter::open(&p32).expect("open f32");
             set(&mut a, edits);
             set(&mut b, edits);
-            let fa = a.render(Variant::Full).expect("render f16").pixels;
-            let fb = b.render(Variant::Full).expect("render f32").pixels;
+            let fa = a.render().expect("render f16").pixels;
+            let fb = b.render().expect("render f32").pixels;
             assert!(
                 fa.iter().flatten().all(|v| v.is_finite()),
                 "{name} {edits:?}: non-finite f16 relight"
@@ -313,31 +312,23 @@ fn relight_rejects_bad_input_with_clear_errors() {
         &small_options(12, 8, 2, 2, Precision::F16),
         "bad.prtbake",
     );
-    let mut r = Relighter::open(&path).expect("open");
+    let mut r = PixelRelighter::open(&path).expect("open");
     let err = |e: RuntimeError| e.to_string();
-    let e = err(r
-        .apply(&parse_override("nosuch.kd=1").expect("parse"))
-        .expect_err("unknown material"));
+    let e = err(prt_tests::edit_pixel(&mut r, "nosuch.kd=1").expect_err("unknown material"));
     assert!(
         e.contains("unknown material 'nosuch'") && e.contains("shiny"),
         "{e}"
     );
-    let e = err(r
-        .apply(&parse_override("floor.kd=1").expect("parse"))
-        .expect_err("not editable"));
+    let e = err(prt_tests::edit_pixel(&mut r, "floor.kd=1").expect_err("not editable"));
     assert!(e.contains("not editable") && e.contains("floor"), "{e}");
-    let e = err(r
-        .apply(&parse_override("shiny.alpha=0.3").expect("parse"))
-        .expect_err("wrong param"));
+    let e = err(prt_tests::edit_pixel(&mut r, "shiny.alpha=0.3").expect_err("wrong param"));
     assert!(e.contains("blinn-phong") && e.contains("alpha"), "{e}");
-    let e = err(r
-        .apply(&parse_override("block.ks=0.3").expect("parse"))
-        .expect_err("diffuse has no ks"));
+    let e = err(prt_tests::edit_pixel(&mut r, "block.ks=0.3").expect_err("diffuse has no ks"));
     assert!(e.contains("ks"), "{e}");
     assert!(parse_override("shiny.kd=abc").is_err());
     assert!(parse_override("shiny.shininess=-1").is_err());
     assert!(matches!(
-        r.render(Variant::Compressed),
+        r.set_variant(Variant::Compressed),
         Err(RuntimeError::NoCompressed)
     ));
 
@@ -346,7 +337,7 @@ fn relight_rejects_bad_input_with_clear_errors() {
     for cut in [0, 7, 100, bytes.len() / 2, bytes.len() - 1] {
         let p = temp_path(&format!("cut{cut}.prtbake"));
         std::fs::write(&p, &bytes[..cut]).expect("write");
-        let e = Relighter::open(&p)
+        let e = PixelRelighter::open(&p)
             .err()
             .map(|e| e.to_string())
             .expect("truncated file must fail");
@@ -362,7 +353,7 @@ fn relight_rejects_bad_input_with_clear_errors() {
     bad[n - 5] ^= 0x40;
     let p = temp_path("flipped.prtbake");
     std::fs::write(&p, &bad).expect("write");
-    let e = Relighter::open(&p)
+    let e = PixelRelighter::open(&p)
         .err()
         .map(|e| e.to_string())
         .expect("corrupt file must fail");
@@ -376,7 +367,7 @@ fn relight_rejects_bad_input_with_clear_errors() {
     w.set_metadata(serde_json::json!({"something": "else"}));
     let p = temp_path("foreign.prtbake");
     w.write_atomic(&p).expect("write");
-    let e = Relighter::open(&p)
+    let e = PixelRelighter::open(&p)
         .err()
         .map(|e| e.to_string())
         .expect("foreign file must fail");

@@ -11,7 +11,7 @@ use prt_bake::reference::render;
 use prt_bake::scene::Scene;
 use prt_formats::overrides::parse_override;
 use prt_formats::pixel::MaterialParams;
-use prt_runtime::{Relighter, Variant};
+use prt_runtime::PixelRelighter;
 use prt_tests::{assert_same_size, bake_to_file, bases_for, small_options, test_scene};
 
 /// The projected-BRDF reference for the layout's materials with `edits` applied.
@@ -57,7 +57,7 @@ fn check_exact(scene: &Scene, reflections: u32, expect_channels: u32) {
         &opts,
         &format!("exact-{reflections}-{expect_channels}.prtbake"),
     );
-    let mut relight = Relighter::open(&path).expect("open bake");
+    let mut relight = PixelRelighter::open(&path).expect("open bake");
     assert_eq!(relight.meta().channels, expect_channels);
 
     let settings: [&[&str]; 3] = [
@@ -80,11 +80,11 @@ fn check_exact(scene: &Scene, reflections: u32, expect_channels: u32) {
         let mut params: Vec<(usize, MaterialParams)> = Vec::new();
         for e in edits {
             let o = parse_override(e).expect("override");
-            relight.apply(&o).expect("apply");
+            relight.set_params(&o.material, &[o.value]).expect("apply");
             let i = scene.material_index(&o.material).expect("material");
             params.push((i, relight.params(&o.material).expect("params")));
         }
-        let frame = relight.render(Variant::Full).expect("relight");
+        let frame = relight.render().expect("relight");
         let reference = projected_reference(scene, &layout, &params, &opts);
         let peak = reference
             .iter()

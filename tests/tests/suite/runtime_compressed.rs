@@ -5,10 +5,9 @@
 
 use glam::Vec3;
 use prt_bake::pixel::Precision;
-use prt_formats::overrides::parse_override;
 use prt_formats::pixel::{group_weights, names};
 use prt_formats::BakeFile;
-use prt_runtime::{Relighter, Variant};
+use prt_runtime::{PixelRelighter, Variant};
 use prt_tests::{
     assert_same_size, bake_to_file, bases_for, relative_l2, small_options, test_scene,
 };
@@ -23,19 +22,23 @@ const EDITS: [&[&str]; 2] = [
     ],
 ];
 
-fn relit(path: &std::path::Path, edits: &[&str], variant: Variant) -> (Relighter, Vec<[f32; 3]>) {
-    let mut r = Relighter::open(path).expect("open");
+fn relit(
+    path: &std::path::Path,
+    edits: &[&str],
+    variant: Variant,
+) -> (PixelRelighter, Vec<[f32; 3]>) {
+    let mut r = PixelRelighter::open(path).expect("open");
     for e in edits {
-        r.apply(&parse_override(e).expect("override"))
-            .expect("apply");
+        prt_tests::edit_pixel(&mut r, e).expect("apply");
     }
-    let px = r.render(variant).expect("render").pixels;
+    r.set_variant(variant).expect("variant");
+    let px = r.render().expect("render").pixels;
     (r, px)
 }
 
 /// Per-pixel bound on |full - compressed| for the relighter's current settings: for every
 /// group, ||W_c|| times the norm of the pixel's row reconstruction error.
-fn cauchy_schwarz_bound(r: &Relighter, file: &BakeFile) -> Vec<[f64; 3]> {
+fn cauchy_schwarz_bound(r: &PixelRelighter, file: &BakeFile) -> Vec<[f64; 3]> {
     let meta = r.meta();
     let (coeff, _) = r.coefficients();
     let mut bound = vec![[0.0f64; 3]; (meta.width * meta.height) as usize];
@@ -97,7 +100,7 @@ fn full_rank_compression_relights_like_the_full_variant() {
     let mut opts = small_options(6, 5, 4, 2, Precision::F32);
     opts.compress_rank = Some(64);
     let (_, path) = bake_to_file(&scene, &bases, &opts, "compressed-full-rank.prtbake");
-    let r = Relighter::open(&path).expect("open");
+    let r = PixelRelighter::open(&path).expect("open");
     for g in &r.meta().groups {
         // The data's rank is at most min(pixels, row length): 64 must not be what caps it.
         let data_rank_cap = g.pixels.min(g.row_len) as usize;

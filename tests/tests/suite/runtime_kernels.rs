@@ -4,8 +4,8 @@
 
 use glam::Vec3;
 use prt_bake::pixel::Precision;
-use prt_formats::overrides::parse_override;
-use prt_runtime::{Kernel, Relighter, Variant};
+use prt_runtime::hooks::Kernel;
+use prt_runtime::{PixelRelighter, Variant};
 use prt_tests::{bake_to_file, bases_for, small_options, test_scene};
 
 #[test]
@@ -38,16 +38,16 @@ fn scalar_and_vector_kernels_give_bit_identical_frames() {
             ],
         ];
         for edits in settings {
-            let mut r = Relighter::open(&path).expect("open");
+            let mut r = PixelRelighter::open(&path).expect("open");
             for e in edits {
-                r.apply(&parse_override(e).expect("override"))
-                    .expect("apply");
+                prt_tests::edit_pixel(&mut r, e).expect("apply");
             }
             for variant in [Variant::Full, Variant::Compressed] {
+                r.set_variant(variant).expect("variant");
                 r.set_kernel(Kernel::Auto);
-                let fast = r.render(variant).expect("render").pixels;
+                let fast = r.render().expect("render").pixels;
                 r.set_kernel(Kernel::Scalar);
-                let scalar = r.render(variant).expect("render").pixels;
+                let scalar = r.render().expect("render").pixels;
                 assert_eq!(fast.len(), scalar.len());
                 assert!(fast.iter().flatten().any(|&v| v > 0.0), "black frame");
                 let differ: Vec<usize> = (0..fast.len())

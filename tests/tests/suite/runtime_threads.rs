@@ -4,8 +4,7 @@
 
 use glam::Vec3;
 use prt_bake::pixel::Precision;
-use prt_formats::overrides::parse_override;
-use prt_runtime::{Relighter, Variant};
+use prt_runtime::{PixelRelighter, Variant};
 use prt_tests::{bake_to_file, bases_for, small_options, test_scene};
 
 fn bits(px: &[[f32; 3]]) -> Vec<u32> {
@@ -26,18 +25,18 @@ fn relight_is_bit_identical_on_one_and_three_threads() {
             &opts,
             &format!("threads-{}.prtbake", precision.name()),
         );
-        let mut r = Relighter::open(&path).expect("open");
+        let mut r = PixelRelighter::open(&path).expect("open");
         for e in ["shiny.shininess=90", "metal.ks=0.3,0.9,0.6", "block.kd=0.2"] {
-            r.apply(&parse_override(e).expect("override"))
-                .expect("apply");
+            prt_tests::edit_pixel(&mut r, e).expect("apply");
         }
         for variant in [Variant::Full, Variant::Compressed] {
+            r.set_variant(variant).expect("variant");
             let frame = |threads| {
                 rayon::ThreadPoolBuilder::new()
                     .num_threads(threads)
                     .build()
                     .expect("pool")
-                    .install(|| r.render(variant).expect("render").pixels)
+                    .install(|| r.render().expect("render").pixels)
             };
             let (one, three) = (frame(1), frame(3));
             assert_eq!(one.len(), (36 * 40) as usize);

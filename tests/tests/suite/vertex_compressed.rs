@@ -20,7 +20,8 @@ use prt_bake::pixel::SlotPlan;
 use prt_bake::vertex::{bake_vertex_with, prepare_scene, VertexBakeOptions, VertexPlan};
 use prt_formats::clustered::CompressionSettings;
 use prt_formats::pixel::Precision;
-use prt_runtime::vertex::{VertexIncident, VertexRelighter};
+use prt_runtime::hooks::VertexIncident;
+use prt_runtime::VertexRelighter;
 use prt_tests::{relative_l2, small_basis, temp_path};
 
 use super::vertex_exactness::{environment, scene, EDITS};
@@ -51,11 +52,11 @@ fn relit(name: &str, compression: Option<CompressionSettings>) -> VertexRelighte
     bake_vertex_with(&integ, &plan, &bases, &shading, &opts, &path, None).expect("bake");
     let mut r = VertexRelighter::open(&path).expect("open");
     let (w, h, texels) = environment();
-    r.set_environment_latlong(w, h, texels, 30.0)
+    r.set_environment_texels(w, h, texels.as_flattened())
         .expect("environment");
+    r.set_environment_rotation(30.0).expect("rotation");
     for e in EDITS {
-        r.apply(&prt_formats::parse_override(e).expect("edit syntax"))
-            .expect("edit applies");
+        prt_tests::edit_vertex(&mut r, e).expect("edit applies");
     }
     r
 }
@@ -94,11 +95,8 @@ fn incident(r: &mut VertexRelighter) -> Vec<f32> {
 }
 
 fn image(r: &mut VertexRelighter) -> Vec<[f32; 3]> {
-    let camera = r.default_camera();
-    let (w, h) = (48u32, 36u32);
-    let mut out = vec![0.0f32; 3 * (w * h) as usize];
-    r.render(&camera, w, h, &mut out).expect("render");
-    out.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect()
+    r.set_size(48, 36).expect("size");
+    r.render().expect("render").pixels
 }
 
 #[test]

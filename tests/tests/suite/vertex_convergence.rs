@@ -17,7 +17,7 @@ use std::sync::OnceLock;
 use prt_bake::progress::Silent;
 use prt_bake::run::{load, run_vertex, VertexRunSettings};
 use prt_formats::pixel::Precision;
-use prt_runtime::vertex::VertexRelighter;
+use prt_runtime::VertexRelighter;
 use prt_tests::{reference_image, relative_l2, temp_path, workspace_root, ViewSetting};
 
 /// Reflections of the bake and of the reference.
@@ -111,13 +111,13 @@ fn baked_blinn_phong() -> &'static Baked {
 fn relight(b: &Baked, setting: &ViewSetting, extra_deg: f32) -> Vec<[f32; 3]> {
     let mut r = VertexRelighter::open(&b.path).expect("open vertex bake");
     let (file, intensity) = setting.env;
-    let (map, _) = prt_formats::envmap::load_latlong(&workspace_root().join(file), intensity)
+    r.load_environment(workspace_root().join(file))
         .expect("environment map");
-    r.set_environment(map, setting.rotation_deg + extra_deg)
-        .expect("environment");
+    r.set_environment_intensity(intensity).expect("intensity");
+    r.set_environment_rotation(setting.rotation_deg + extra_deg)
+        .expect("rotation");
     for e in &setting.edits {
-        r.apply(&prt_formats::parse_override(e).expect("edit syntax"))
-            .expect("edit applies");
+        prt_tests::edit_vertex(&mut r, e).expect("edit applies");
     }
     let frame = setting
         .camera
@@ -125,10 +125,9 @@ fn relight(b: &Baked, setting: &ViewSetting, extra_deg: f32) -> Vec<[f32; 3]> {
         .expect("camera spec")
         .frame()
         .expect("camera frame");
-    let mut out = vec![0.0f32; 3 * (setting.width * setting.height) as usize];
-    r.render(&frame, setting.width, setting.height, &mut out)
-        .expect("render");
-    out.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
+    r.set_size(setting.width, setting.height).expect("size");
+    r.set_camera(frame).expect("camera");
+    r.render().expect("render").pixels
 }
 
 /// Relights `setting`, compares with the reference, and checks that the bound separates the

@@ -54,7 +54,7 @@ use prt_formats::lighting::sh::{sh_eval, SH_COUNT};
 use prt_formats::lighting::CubeMap;
 use prt_formats::pixel::Precision;
 use prt_formats::vertex::{vertex_frame, DIRECT_CUBE, T1_LIGHT_CUBE, T2_LIGHT_CUBE};
-use prt_runtime::vertex::VertexRelighter;
+use prt_runtime::VertexRelighter;
 use prt_tests::{small_basis, temp_path};
 
 /// N1: first directions per vertex.
@@ -332,11 +332,11 @@ fn relit_incident_light_equals_an_independent_projection_of_the_traced_paths() {
     // The runtime: a new environment, turned, and new parameters of both editable materials.
     let mut r = VertexRelighter::open(&path).expect("open the vertex bake");
     let (w, h, texels) = environment();
-    r.set_environment_latlong(w, h, texels.clone(), ROTATION_DEG)
+    r.set_environment_texels(w, h, texels.as_flattened())
         .expect("environment");
+    r.set_environment_rotation(ROTATION_DEG).expect("rotation");
     for e in EDITS {
-        r.apply(&prt_formats::parse_override(e).expect("edit syntax"))
-            .expect("edit applies");
+        prt_tests::edit_vertex(&mut r, e).expect("edit applies");
     }
     let (coeff, clamped) = r.coefficients();
     assert!(!clamped, "a parameter lies outside its basis' range");

@@ -17,25 +17,19 @@
 use prt_formats::envmap::LatLongMap;
 use prt_formats::lighting::cubemap::LatLongToCube;
 use prt_formats::lighting::{prefilter, CubeMap, Face, HaarCube, LightingError};
+use prt_formats::vertex::{DIRECT_CUBE, T1_LIGHT_CUBE, T2_LIGHT_CUBE};
 use rayon::prelude::*;
-
-/// Side of the cube map direct light (T0) is stored against.
-pub const DIRECT_SIZE: usize = 64;
-/// Side of the cube map one-reflection light (T1) is stored against.
-pub const ONE_BOUNCE_SIZE: usize = 8;
-/// Side of the cube map two-reflection light (T2) is stored against.
-pub const TWO_BOUNCE_SIZE: usize = 2;
 
 /// The coefficients of one environment (see the module documentation).
 #[derive(Debug, Clone)]
 pub struct LightCoefficients {
-    /// The environment as a 6 x [`DIRECT_SIZE`]^2 cube map (after its rotation).
+    /// The environment as a 6 x [`DIRECT_CUBE`]^2 cube map (after its rotation).
     pub cube: CubeMap,
     /// `C0`: the area-weighted Haar coefficients of `cube`, `[red, green, blue]`.
     pub haar: [Vec<f32>; 3],
-    /// `C1`: mean radiance per texel of the 6 x [`ONE_BOUNCE_SIZE`]^2 cube.
+    /// `C1`: mean radiance per texel of the 6 x [`T1_LIGHT_CUBE`]^2 cube.
     pub one_bounce: CubeMap,
-    /// `C2`: mean radiance per texel of the 6 x [`TWO_BOUNCE_SIZE`]^2 cube.
+    /// `C2`: mean radiance per texel of the 6 x [`T2_LIGHT_CUBE`]^2 cube.
     pub two_bounce: CubeMap,
     /// The Gaussian widths (degrees) of `prefiltered`.
     pub widths_deg: Vec<f64>,
@@ -56,25 +50,25 @@ impl LightCoefficients {
         Self::from_cube(environment_cube(map, rotation_deg)?, widths_deg)
     }
 
-    /// The coefficients of an environment already resampled to a 6 x [`DIRECT_SIZE`]^2 cube.
+    /// The coefficients of an environment already resampled to a 6 x [`DIRECT_CUBE`]^2 cube.
     pub fn from_cube(
         cube: CubeMap,
         widths_deg: &[f64],
     ) -> Result<LightCoefficients, LightingError> {
-        if cube.size() != DIRECT_SIZE {
+        if cube.size() != DIRECT_CUBE {
             return Err(LightingError::LengthMismatch {
                 what: "cube-map side for per-vertex light (6 x 64 x 64)",
-                expected: DIRECT_SIZE,
+                expected: DIRECT_CUBE,
                 got: cube.size(),
             });
         }
-        let haar = HaarCube::new(DIRECT_SIZE)?.forward_cube(&cube)?;
+        let haar = HaarCube::new(DIRECT_CUBE)?.forward_cube(&cube)?;
         let mut one_bounce = cube.downsample()?;
-        while one_bounce.size() > ONE_BOUNCE_SIZE {
+        while one_bounce.size() > T1_LIGHT_CUBE {
             one_bounce = one_bounce.downsample()?;
         }
         let mut two_bounce = one_bounce.downsample()?;
-        while two_bounce.size() > TWO_BOUNCE_SIZE {
+        while two_bounce.size() > T2_LIGHT_CUBE {
             two_bounce = two_bounce.downsample()?;
         }
         let prefiltered = prefiltered(&cube, widths_deg)?;
@@ -89,11 +83,14 @@ impl LightCoefficients {
     }
 }
 
-/// The environment `map` turned `rotation_deg` degrees about +Y as the 6 x [`DIRECT_SIZE`]^2
+/// The environment `map` turned `rotation_deg` degrees about +Y as the 6 x [`DIRECT_CUBE`]^2
 /// cube map direct light is stored against: `CubeMap::from_latlong`'s values bit for bit,
 /// its six faces resampled in parallel (a light change's largest piece of work after the
 /// prefilter).
-pub fn environment_cube(map: &LatLongMap, rotation_deg: f64) -> Result<CubeMap, LightingError> {
+pub(crate) fn environment_cube(
+    map: &LatLongMap,
+    rotation_deg: f64,
+) -> Result<CubeMap, LightingError> {
     if !rotation_deg.is_finite() {
         return Err(LightingError::InvalidParameter {
             what: "environment rotation (degrees)",
@@ -105,20 +102,23 @@ pub fn environment_cube(map: &LatLongMap, rotation_deg: f64) -> Result<CubeMap, 
         &map.texels,
         map.width,
         map.height,
-        DIRECT_SIZE,
+        DIRECT_CUBE,
         rotation_deg,
     )?;
     let faces: Vec<Vec<[f32; 3]>> = Face::ALL
         .par_iter()
         .map(|&face| resample.face(face))
         .collect();
-    CubeMap::new(DIRECT_SIZE, faces.concat())
+    CubeMap::new(DIRECT_CUBE, faces.concat())
 }
 
 /// [`LightCoefficients::prefiltered`] of `cube` for `widths_deg` (width 0: `cube` itself):
 /// every (width, face) computed on its own and in parallel, so the result does not depend on
 /// the thread count.
-pub fn prefiltered(cube: &CubeMap, widths_deg: &[f64]) -> Result<Vec<CubeMap>, LightingError> {
+pub(crate) fn prefiltered(
+    cube: &CubeMap,
+    widths_deg: &[f64],
+) -> Result<Vec<CubeMap>, LightingError> {
     // The prefilter dominates a light change: its faces run in parallel (each face is
     // computed on its own, so the result does not depend on the thread count).
     let filters = widths_deg
@@ -197,8 +197,8 @@ mod tests {
                 }
             }
         }
-        assert_eq!(c.one_bounce.size(), ONE_BOUNCE_SIZE);
-        assert_eq!(c.two_bounce.size(), TWO_BOUNCE_SIZE);
+        assert_eq!(c.one_bounce.size(), T1_LIGHT_CUBE);
+        assert_eq!(c.two_bounce.size(), T2_LIGHT_CUBE);
         // Parseval: the Haar coefficients carry the integral of L^2 over the sphere.
         for (ch, want) in [0.5f64, 1.0, 2.0].into_iter().enumerate() {
             let energy: f64 = c.haar[ch].iter().map(|&x| (x as f64) * (x as f64)).sum();

@@ -36,28 +36,17 @@
 use prt_formats::view::CameraFrame;
 use rayon::prelude::*;
 
-// The view's rays (the film formula), the input checks and the eye-inside-geometry check live
-// beside this file, as a submodule so that the crate root keeps one line per subsystem.
-#[path = "view.rs"]
-mod view;
-use view::{check_indices, cross, dot};
-pub use view::{eye_verdict, RasterError, ViewRays};
-
-/// Largest image width or height accepted (pixel rectangles are stored as `u16`).
-pub const MAX_IMAGE_SIDE: u32 = 16384;
+use super::view::{check_indices, cross, dot, RasterError, ViewRays, NO_TRIANGLE};
 
 /// The near plane, as a fraction of the farthest vertex's camera-space distance (the largest
 /// `|x|`, `|y|` or `|z|` over all finite vertices). The reference tracer has no near plane; at
 /// 1e-5 of the scene's depth, only a surface touching the eye (where no image is meaningful)
 /// is left out, while the near plane stays far enough from the eye for projections to be
 /// well conditioned.
-pub const NEAR_PLANE_RELATIVE: f64 = 1e-5;
+pub(crate) const NEAR_PLANE_RELATIVE: f64 = 1e-5;
 
 /// Image rows per band, the unit of parallel work and binning.
-pub const BAND_ROWS: u32 = 16;
-
-/// The triangle index of a pixel that sees no triangle.
-pub const NO_TRIANGLE: u32 = u32::MAX;
+pub(crate) const BAND_ROWS: u32 = 16;
 
 /// Triangles per binning task.
 const CHUNK: usize = 4096;
@@ -69,55 +58,43 @@ const RECT_PAD: f64 = 1e-3;
 
 /// What one pixel sees.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Fragment {
+pub(crate) struct Fragment {
     /// Index of the triangle seen, or [`NO_TRIANGLE`].
-    pub triangle: u32,
+    pub(crate) triangle: u32,
     /// The weights of the triangle's vertices 1 and 2 at the point seen (vertex 0's weight is
     /// `1 - bary[0] - bary[1]`), as the tracer's hit reports them: perspective-correct, the
     /// point where the pixel centre's ray meets the triangle. Zero when nothing is seen.
-    pub bary: [f32; 2],
+    pub(crate) bary: [f32; 2],
     /// Distance from the eye to that point along the unit view direction (world units);
     /// infinite when nothing is seen.
-    pub distance: f32,
+    pub(crate) distance: f32,
 }
 
 impl Fragment {
     /// A pixel that sees nothing.
-    pub const EMPTY: Fragment = Fragment {
+    pub(crate) const EMPTY: Fragment = Fragment {
         triangle: NO_TRIANGLE,
         bary: [0.0; 2],
         distance: f32::INFINITY,
     };
 
     /// True when the pixel sees no triangle.
-    pub fn is_empty(&self) -> bool {
+    pub(crate) fn is_empty(&self) -> bool {
         self.triangle == NO_TRIANGLE
     }
 }
 
 /// The rasterizer's output: one [`Fragment`] per pixel.
 #[derive(Clone, Debug, PartialEq)]
-pub struct VisibilityBuffer {
+pub(crate) struct VisibilityBuffer {
     /// Image width in pixels.
-    pub width: u32,
+    pub(crate) width: u32,
     /// Image height in pixels.
-    pub height: u32,
+    pub(crate) height: u32,
     /// The near-plane distance used (camera-space depth, world units).
-    pub near: f64,
+    pub(crate) near: f64,
     /// Row-major, top row first (`width * height` fragments).
-    pub fragments: Vec<Fragment>,
-}
-
-impl VisibilityBuffer {
-    /// The fragment of pixel (x, y) (row 0 at the top), `None` when the pixel is outside the
-    /// image or sees nothing.
-    pub fn get(&self, x: u32, y: u32) -> Option<Fragment> {
-        if x >= self.width || y >= self.height {
-            return None;
-        }
-        let f = self.fragments[y as usize * self.width as usize + x as usize];
-        (!f.is_empty()).then_some(f)
-    }
+    pub(crate) fragments: Vec<Fragment>,
 }
 
 /// Renders the visibility buffer of a triangle mesh seen by `camera` at `width` x `height`:
@@ -128,7 +105,8 @@ impl VisibilityBuffer {
 /// vertex are skipped; nothing nearer than the near plane ([`NEAR_PLANE_RELATIVE`]) is drawn.
 /// Runs on the current rayon pool; the result is the same on any number of threads. To render
 /// many frames, keep a [`Rasterizer`], which reuses its memory.
-pub fn rasterize(
+#[cfg(test)]
+pub(crate) fn rasterize(
     positions: &[[f32; 3]],
     triangles: &[[u32; 3]],
     camera: &CameraFrame,
@@ -148,7 +126,7 @@ pub fn rasterize(
 /// The working memory of [`rasterize`], kept between frames so that rendering one allocates
 /// nothing once the sizes have settled.
 #[derive(Default)]
-pub struct Rasterizer {
+pub(crate) struct Rasterizer {
     verts: Vec<Vertex>,
     chunks: Vec<ChunkBins>,
     bands: Vec<BandScratch>,
@@ -158,13 +136,13 @@ pub struct Rasterizer {
 
 impl Rasterizer {
     /// A rasterizer with no memory reserved yet.
-    pub fn new() -> Rasterizer {
+    pub(crate) fn new() -> Rasterizer {
         Rasterizer::default()
     }
 
     /// [`rasterize`] into `out`, whose previous contents are replaced (its memory is reused).
     /// On error `out` is left as it was.
-    pub fn render(
+    pub(crate) fn render(
         &mut self,
         positions: &[[f32; 3]],
         triangles: &[[u32; 3]],
@@ -756,43 +734,4 @@ fn raster_band(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn ties_go_to_exactly_one_of_two_opposite_edges() {
-        for n in [
-            [1.0, -2.0, 3.0],
-            [0.0, 2.0, -1.0],
-            [0.0, -0.5, 7.0],
-            [0.0, 0.0, 1.0],
-            [-0.0, 0.0, -3.0],
-        ] {
-            let m = n.map(|x: f64| -x);
-            assert_ne!(owns_ties(n), owns_ties(m), "{n:?}");
-        }
-    }
-
-    #[test]
-    fn film_pixel_and_camera_space_invert_the_film_formula() {
-        let camera = CameraFrame {
-            position: [1.0, 2.0, 3.0],
-            forward: [0.6, 0.0, -0.8],
-            right: [0.8, 0.0, 0.6],
-            up: [0.0, 1.0, 0.0],
-            yfov: 0.7,
-        };
-        let rays = ViewRays::new(&camera, 37, 23).expect("rays");
-        let (film, space) = (Film::new(&rays, 1e-3), CameraSpace::new(&rays));
-        for (x, y) in [(0.5, 0.5), (36.5, 22.5), (12.25, 3.75), (0.0, 23.0)] {
-            let (sx, sy) = rays.film(x, y);
-            let (px, py) = film.pixel(sx, sy);
-            assert!((px - x).abs() < 1e-12 && (py - y).abs() < 1e-12, "{x} {y}");
-            // A point 2.5 along the film ray is at (2.5 sx, 2.5 sy, 2.5) in camera space.
-            let d = rays.world(sx, sy);
-            let c = space.to_camera(std::array::from_fn(|i| (rays.eye()[i] + 2.5 * d[i]) as f32));
-            assert!((c[0] / c[2] - sx).abs() < 1e-6 && (c[1] / c[2] - sy).abs() < 1e-6);
-            assert!((c[2] - 2.5).abs() < 1e-5);
-        }
-    }
-}
+mod tests;

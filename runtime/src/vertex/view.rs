@@ -8,7 +8,11 @@
 use prt_formats::view::{judge_eye, CameraFrame, EyeVerdict, EYE_TEST_DIRECTIONS};
 use rayon::prelude::*;
 
-use super::{MAX_IMAGE_SIDE, NO_TRIANGLE};
+/// Largest image width or height accepted (the rasterizer stores pixel rectangles as `u16`).
+pub(crate) const MAX_IMAGE_SIDE: u32 = 16384;
+
+/// The triangle index of a pixel that sees no triangle (a mesh has fewer triangles than this).
+pub(crate) const NO_TRIANGLE: u32 = u32::MAX;
 
 /// Why a frame could not be rasterized (or the eye checked).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -78,7 +82,7 @@ pub enum RasterError {
 /// along `normalize(forward + right sx + up sy)` with `sx = (2 x / W - 1) tan(yfov / 2) W / H`
 /// and `sy = (1 - 2 y / H) tan(yfov / 2)`, the reference tracer's `camera_ray`.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ViewRays {
+pub(crate) struct ViewRays {
     pub(super) position: [f64; 3],
     pub(super) forward: [f64; 3],
     pub(super) right: [f64; 3],
@@ -93,7 +97,11 @@ impl ViewRays {
     /// The rays of `camera` for a `width` x `height` image, or why there are none: an image
     /// size outside `1..=MAX_IMAGE_SIDE`, a non-finite frame, a field of view outside
     /// (0, 180) degrees, or axes that do not span space.
-    pub fn new(camera: &CameraFrame, width: u32, height: u32) -> Result<ViewRays, RasterError> {
+    pub(crate) fn new(
+        camera: &CameraFrame,
+        width: u32,
+        height: u32,
+    ) -> Result<ViewRays, RasterError> {
         if !(1..=MAX_IMAGE_SIDE).contains(&width) || !(1..=MAX_IMAGE_SIDE).contains(&height) {
             return Err(RasterError::ImageSize {
                 width,
@@ -137,7 +145,7 @@ impl ViewRays {
     /// The film offsets `(sx, sy)` of film position `(x, y)` in pixels: the ray is
     /// `forward + right sx + up sy`.
     #[inline]
-    pub fn film(&self, x: f64, y: f64) -> (f64, f64) {
+    pub(crate) fn film(&self, x: f64, y: f64) -> (f64, f64) {
         let sx = (2.0 * x / f64::from(self.width) - 1.0) * self.tan_half_fov * self.aspect;
         let sy = (1.0 - 2.0 * y / f64::from(self.height)) * self.tan_half_fov;
         (sx, sy)
@@ -150,7 +158,7 @@ impl ViewRays {
     }
 
     /// The unit view direction through film position `(x, y)` in pixels.
-    pub fn direction(&self, x: f64, y: f64) -> [f64; 3] {
+    pub(crate) fn direction(&self, x: f64, y: f64) -> [f64; 3] {
         let (sx, sy) = self.film(x, y);
         let d = self.world(sx, sy);
         let len = dot(d, d).sqrt();
@@ -158,19 +166,20 @@ impl ViewRays {
     }
 
     /// The unit view direction through the centre of pixel `(px, py)` (row 0 at the top).
-    pub fn pixel_direction(&self, px: u32, py: u32) -> [f32; 3] {
+    pub(crate) fn pixel_direction(&self, px: u32, py: u32) -> [f32; 3] {
         self.direction(f64::from(px) + 0.5, f64::from(py) + 0.5)
             .map(|c| c as f32)
     }
 
     /// The eye position.
-    pub fn eye(&self) -> [f64; 3] {
+    #[cfg(test)]
+    pub(crate) fn eye(&self) -> [f64; 3] {
         self.position
     }
 }
 
 /// Refuses vertex indices out of range and more triangles than a `u32` can name.
-pub(super) fn check_indices(vertices: usize, triangles: &[[u32; 3]]) -> Result<(), RasterError> {
+pub(crate) fn check_indices(vertices: usize, triangles: &[[u32; 3]]) -> Result<(), RasterError> {
     let max = NO_TRIANGLE as usize;
     if triangles.len() > max {
         return Err(RasterError::TooManyTriangles {
@@ -199,12 +208,12 @@ pub(super) fn check_indices(vertices: usize, triangles: &[[u32; 3]]) -> Result<(
 }
 
 /// Dot product (f64: the rasterizer's camera-space arithmetic).
-pub(super) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 /// Cross product (f64).
-pub(super) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+pub(crate) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [
         a[1] * b[2] - a[2] * b[1],
         a[2] * b[0] - a[0] * b[2],
@@ -223,7 +232,7 @@ const CHUNK: usize = 8192;
 ///
 /// The ray-triangle test is the tracer's (f32 Moller-Trumbore, hits at `t > 0`); of equally
 /// near hits, the lowest triangle index counts.
-pub fn eye_verdict(
+pub(crate) fn eye_verdict(
     positions: &[[f32; 3]],
     normals: &[[f32; 3]],
     triangles: &[[u32; 3]],

@@ -9,7 +9,7 @@
 
 use half::f16;
 
-use crate::tiled::Tiled;
+use super::tiled::Tiled;
 
 /// A column (stored element, or low-rank component) of a group with a nonzero weight: its
 /// index and its weight per output channel.
@@ -21,7 +21,7 @@ const TILE: usize = 8;
 /// `acc[c][k] = init[c] + sum_cols w[c] * value(col, i0 + k)` for k < acc[0].len(), reading
 /// each stored value once; `simd` allows the vector kernel. With `READS_ONLY`, the same values
 /// are read in the same order but only summed, unweighted, into `acc[0]` (a measurement of
-/// what the memory traffic alone costs, see `Relighter::time_reads`).
+/// what the memory traffic alone costs, see `PixelRelighter::time_reads`).
 pub(crate) fn tiles_f32<const READS_ONLY: bool>(
     values: &Tiled<f32>,
     cols: &[Column],
@@ -146,8 +146,8 @@ mod x86 {
 
     use half::f16;
 
-    use crate::contract::{add_run_portable, Column};
-    use crate::tiled::{Tiled, TILE_PIXELS};
+    use crate::pixel::contract::{add_run_portable, Column};
+    use crate::pixel::tiled::{Tiled, TILE_PIXELS};
 
     /// Pixels per tile: two registers per channel, so six independent add chains hide the
     /// add latency.
@@ -248,7 +248,7 @@ mod x86 {
         }
     }
 
-    /// [`crate::contract::stream_out`]: plain stores up to the first 32-byte boundary of
+    /// [`super::stream_out`]: plain stores up to the first 32-byte boundary of
     /// `dst`, then aligned non-temporal stores of eight values, then the tail; a fence at the
     /// end, so the frame is complete in memory order before the band's task returns.
     #[target_feature(enable = "avx")]
@@ -269,7 +269,7 @@ mod x86 {
         _mm_sfence();
     }
 
-    /// [`crate::contract::add_run`] eight pixels at a time: the three channel vectors are
+    /// [`super::add_run`] eight pixels at a time: the three channel vectors are
     /// interleaved into the image's layout (r g b r g b ...) by shuffles, then added to it.
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn add_run(out: &mut [[f32; 3]], a0: &[f32], a1: &[f32], a2: &[f32]) {

@@ -1,15 +1,33 @@
-//! The rasterizer against an independent ray caster: f64 Moller-Trumbore at every pixel centre,
-//! with the view direction re-derived here from the documented convention
+//! The rasterizer's tests. Against an independent ray caster: f64 Moller-Trumbore at every
+//! pixel centre, with the view direction re-derived here from the documented convention
 //! (docs/conventions.md, "Camera"). Pixels whose centre lies within a hair (1e-9 rad) of a
 //! triangle's edge, as the caster sees it, may go either way; they are counted and bounded.
+//! Then its parts: the tie rule of shared edges, the film mapping, and the eye check
+//! (`view.rs`).
 
-use prt_formats::view::{CameraFrame, CameraSpec};
-use prt_runtime::raster::{
-    eye_verdict, rasterize, RasterError, ViewRays, VisibilityBuffer, NO_TRIANGLE,
-};
+use prt_formats::view::CameraSpec;
 use rayon::prelude::*;
 
-use crate::synthetic::Lcg;
+use super::*;
+use crate::vertex::view::eye_verdict;
+
+/// A small deterministic generator (an LCG) for the test geometry.
+struct Lcg(u64);
+
+impl Lcg {
+    fn new(seed: u64) -> Lcg {
+        Lcg(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
+    }
+    /// Uniform in [lo, hi).
+    fn uniform(&mut self, lo: f32, hi: f32) -> f32 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        let u = (self.0 >> 40) as f32 / (1u64 << 24) as f32;
+        lo + (hi - lo) * u
+    }
+}
 
 type V3 = [f64; 3];
 
@@ -642,7 +660,7 @@ fn a_kept_rasterizer_renders_what_a_fresh_one_does() {
     let mut big = floor(-1.5, 20.0, 30, &mut rng);
     big.add(&torus([0.0, 0.0, 0.0], 1.2, 0.45, 64, 40));
     let small = overlapping(&mut rng);
-    let mut r = prt_runtime::raster::Rasterizer::new();
+    let mut r = Rasterizer::new();
     let mut out = rasterize(
         &small.positions,
         &small.triangles,
@@ -833,7 +851,7 @@ fn frame_time_on_100k_triangles() {
     mesh.add(&torus([0.0, 0.0, 0.0], 1.2, 0.45, 256, 160)); // 81 920
     mesh.add(&sphere([1.8, -0.4, 1.0], 0.8, 64, 96, 0.05)); // 12 096
     let cam = camera("eye=0.5,1.6,4 target=0,0,0 fov=50");
-    let mut r = prt_runtime::raster::Rasterizer::new();
+    let mut r = Rasterizer::new();
     let mut vb = rasterize(&mesh.positions, &mesh.triangles, &cam, 640, 480).expect("raster");
     for threads in [1, 2] {
         let pool = rayon::ThreadPoolBuilder::new()
@@ -868,5 +886,42 @@ fn frame_time_on_100k_triangles() {
             wall[wall.len() / 2],
             wall[0],
         );
+    }
+}
+
+#[test]
+fn ties_go_to_exactly_one_of_two_opposite_edges() {
+    for n in [
+        [1.0, -2.0, 3.0],
+        [0.0, 2.0, -1.0],
+        [0.0, -0.5, 7.0],
+        [0.0, 0.0, 1.0],
+        [-0.0, 0.0, -3.0],
+    ] {
+        let m = n.map(|x: f64| -x);
+        assert_ne!(owns_ties(n), owns_ties(m), "{n:?}");
+    }
+}
+
+#[test]
+fn film_pixel_and_camera_space_invert_the_film_formula() {
+    let camera = CameraFrame {
+        position: [1.0, 2.0, 3.0],
+        forward: [0.6, 0.0, -0.8],
+        right: [0.8, 0.0, 0.6],
+        up: [0.0, 1.0, 0.0],
+        yfov: 0.7,
+    };
+    let rays = ViewRays::new(&camera, 37, 23).expect("rays");
+    let (film, space) = (Film::new(&rays, 1e-3), CameraSpace::new(&rays));
+    for (x, y) in [(0.5, 0.5), (36.5, 22.5), (12.25, 3.75), (0.0, 23.0)] {
+        let (sx, sy) = rays.film(x, y);
+        let (px, py) = film.pixel(sx, sy);
+        assert!((px - x).abs() < 1e-12 && (py - y).abs() < 1e-12, "{x} {y}");
+        // A point 2.5 along the film ray is at (2.5 sx, 2.5 sy, 2.5) in camera space.
+        let d = rays.world(sx, sy);
+        let c = space.to_camera(std::array::from_fn(|i| (rays.eye()[i] + 2.5 * d[i]) as f32));
+        assert!((c[0] / c[2] - sx).abs() < 1e-6 && (c[1] / c[2] - sy).abs() < 1e-6);
+        assert!((c[2] - 2.5).abs() < 1e-5);
     }
 }
