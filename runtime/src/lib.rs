@@ -28,6 +28,7 @@ mod tiled;
 pub mod vertex;
 
 pub use error::RuntimeError;
+pub use materials::ClampedParam;
 
 use std::path::Path;
 use std::time::Instant;
@@ -304,6 +305,12 @@ impl Relighter {
     /// parameter lay outside its basis' sampled range (and was clamped).
     pub fn coefficients(&self) -> (Vec<[f32; 3]>, bool) {
         self.materials.coefficients()
+    }
+
+    /// The materials whose lobe parameter lies outside its basis' sampled range (relit at the
+    /// nearest end), each with its value and the range, for warnings that name them.
+    pub fn clamped_params(&self) -> Vec<ClampedParam> {
+        self.materials.clamped_params()
     }
 
     /// Relights the image for the current parameters.

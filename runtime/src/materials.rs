@@ -5,10 +5,49 @@
 //! refuse the same edits and weigh their slots the same way.
 
 use prt_formats::basis::BrdfBasis;
+use prt_formats::family::Param;
 use prt_formats::overrides::{MaterialOverride, OverrideValue};
 use prt_formats::pixel::{slot_coefficients, BasisMeta, MaterialMeta, MaterialParams};
 
 use crate::error::RuntimeError;
+
+/// A lobe parameter outside the range its material's basis was built over: relighting uses
+/// the nearest end of the range, since the basis holds no lobe beyond it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ClampedParam {
+    /// The material's name.
+    pub material: String,
+    /// The parameter: `shininess` or `alpha`.
+    pub param: Param,
+    /// Its value.
+    pub value: f32,
+    /// The basis' sampled range `[min, max]`.
+    pub range: [f32; 2],
+}
+
+impl ClampedParam {
+    /// The value relighting uses: `value` clamped to `range`.
+    pub fn used(&self) -> f32 {
+        self.value.clamp(self.range[0], self.range[1])
+    }
+}
+
+impl std::fmt::Display for ClampedParam {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{}.{} = {} lies outside [{}, {}], the range the bake's {} basis was built over; \
+             relit as {}",
+            self.material,
+            self.param,
+            self.value,
+            self.range[0],
+            self.range[1],
+            self.param,
+            self.used()
+        )
+    }
+}
 
 /// The materials of a bake and their current parameters.
 #[derive(Clone, Debug)]
@@ -135,6 +174,30 @@ impl Materials {
         }
         self.params[i] = p;
         Ok(())
+    }
+
+    /// Every material whose lobe parameter lies outside its basis' sampled range (relighting
+    /// clamps it to the range), in the bake's order.
+    pub(crate) fn clamped_params(&self) -> Vec<ClampedParam> {
+        let mut out = Vec::new();
+        for (m, p) in self.materials.iter().zip(&self.params) {
+            let (Some(b), Some(param)) = (m.basis, m.family.lobe_param()) else {
+                continue;
+            };
+            let samples = &self.bases[b as usize].param_samples;
+            let (Some(&lo), Some(&hi)) = (samples.first(), samples.last()) else {
+                continue;
+            };
+            if !(lo..=hi).contains(&p.param) {
+                out.push(ClampedParam {
+                    material: m.name.clone(),
+                    param,
+                    value: p.param,
+                    range: [lo, hi],
+                });
+            }
+        }
+        out
     }
 
     /// RGB coefficient of every global slot for the current parameters, and whether any

@@ -9,6 +9,9 @@
 //! traced vertices in `<output>.partial/` as it goes; `--resume` continues a killed one, and
 //! with `--keep-checkpoint` recompresses a finished one with other `[vertex]` compression keys.
 //!
+//! A bake replaces an existing file at its output path (written atomically when the bake is
+//! done); `bake` says so when it starts and in its summary (`"replaced": true` with `--json`).
+//!
 //! Measurements and reports are the `bench` binary's (crate `prt-bench`).
 
 use std::path::PathBuf;
@@ -28,6 +31,7 @@ use prt_cli::{parse_size, Stderr};
 
 #[derive(Parser, Debug)]
 #[command(
+    name = "bake",
     version,
     about = "PRT baker: bakes transfer tensors for editable-material relighting"
 )]
@@ -51,7 +55,8 @@ struct BakeArgs {
     /// Print the config (TOML) that INPUT resolves to on stdout and exit without baking.
     #[arg(long)]
     print_config: bool,
-    /// Samples per pixel, or per vertex in vertex mode (default: the config's `spp`).
+    /// Samples per pixel, or per vertex in vertex mode (default: the config's `spp`; 64 when
+    /// it has none).
     #[arg(long)]
     spp: Option<u32>,
     /// Image width (pixel mode only).
@@ -101,8 +106,11 @@ struct BakeArgs {
     json: bool,
 }
 
+/// Words users type for this tool's flags (clap suggests only flags spelt alike).
+const SYNONYMS: &[(&str, &str)] = &[("sample", "spp"), ("samples", "spp"), ("output", "out")];
+
 fn main() -> ExitCode {
-    prt_cli::exit_code(run(Cli::parse()))
+    prt_cli::exit_code(run(prt_cli::parse_args(SYNONYMS)))
 }
 
 fn run(cli: Cli) -> Result<()> {
@@ -118,11 +126,14 @@ fn run(cli: Cli) -> Result<()> {
 fn bake(input: &std::path::Path, a: &BakeArgs) -> Result<()> {
     use prt_bake::config::input::{self, InputKind};
     let resolved = input::resolve(input)?;
+    let progress = Stderr::new(a.quiet || a.json);
+    for w in &resolved.warnings {
+        progress.warn(w);
+    }
     if a.print_config {
         print!("{}", resolved.config.to_toml());
         return Ok(());
     }
-    let progress = Stderr::new(a.quiet || a.json);
     if resolved.kind == InputKind::Gltf {
         progress.note(&format!(
             "{}: baking with this config (save it with --print-config):\n{}",
@@ -131,14 +142,22 @@ fn bake(input: &std::path::Path, a: &BakeArgs) -> Result<()> {
         ));
     }
     let config = resolved.config;
+    let output = a.out.clone().unwrap_or_else(|| config.output.clone());
+    let existed = output.exists();
+    if existed {
+        progress.note(&format!(
+            "{} exists; this bake replaces it when it is done (until then it stays as it is)",
+            output.display()
+        ));
+    }
     let scene = load_scene(&config, &progress)?;
     let precision = a.precision.map(|p| match p {
         PrecisionArg::F32 => Precision::F32,
         PrecisionArg::F16 => Precision::F16,
     });
     match config.mode {
-        Mode::Pixel => bake_pixel(&config, &scene, a, precision, &progress),
-        Mode::Vertex => bake_vertex(&config, &scene, a, precision, &progress),
+        Mode::Pixel => bake_pixel(&config, &scene, a, precision, &progress, existed),
+        Mode::Vertex => bake_vertex(&config, &scene, a, precision, &progress, existed),
     }
 }
 
@@ -148,6 +167,7 @@ fn bake_pixel(
     a: &BakeArgs,
     precision: Option<Precision>,
     progress: &Stderr,
+    existed: bool,
 ) -> Result<()> {
     for (given, flag) in [
         (a.resume, "--resume"),
@@ -174,11 +194,12 @@ fn bake_pixel(
     };
     let summary = run_pixel(config, scene, &settings, progress)?;
     if a.json {
-        print_json(&summary)?;
+        print_json(&summary, existed)?;
     } else {
         eprintln!(
-            "baked {} in {:.2} s ({:.2} Mrays/s): {}",
+            "baked {}{} in {:.2} s ({:.2} Mrays/s): {}",
             summary.output.display(),
+            prt_cli::replaced(existed),
             summary.seconds,
             summary.timings.rays_per_second / 1e6,
             human_bytes(summary.file_bytes)
@@ -193,6 +214,7 @@ fn bake_vertex(
     a: &BakeArgs,
     precision: Option<Precision>,
     progress: &Stderr,
+    existed: bool,
 ) -> Result<()> {
     // Flags of the per-pixel image have no meaning here: refuse rather than ignore them.
     for (given, flag) in [
@@ -225,11 +247,12 @@ fn bake_vertex(
     };
     let summary = run_vertex(config, scene, &settings, progress)?;
     if a.json {
-        print_json(&summary)?;
+        print_json(&summary, existed)?;
     } else {
         eprintln!(
-            "baked {} in {:.2} s ({} vertices, {:.0} vertices/s, {:.2} Mrays/s): {}",
+            "baked {}{} in {:.2} s ({} vertices, {:.0} vertices/s, {:.2} Mrays/s): {}",
             summary.output.display(),
+            prt_cli::replaced(existed),
             summary.seconds,
             summary.vertices,
             summary.timings.vertices_per_second,
@@ -240,14 +263,16 @@ fn bake_vertex(
     Ok(())
 }
 
-/// The summary as one JSON object, with the process's peak resident memory.
-fn print_json(summary: &impl serde::Serialize) -> Result<()> {
+/// The summary as one JSON object, with the process's peak resident memory and whether the
+/// bake replaced an existing file.
+fn print_json(summary: &impl serde::Serialize, replaced: bool) -> Result<()> {
     let mut out = serde_json::to_value(summary)?;
     if let Some(o) = out.as_object_mut() {
         o.insert(
             "peak_resident_bytes".into(),
             prt_cli::peak_resident_bytes().into(),
         );
+        o.insert("replaced".into(), replaced.into());
     }
     println!("{out}");
     Ok(())

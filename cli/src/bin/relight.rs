@@ -16,15 +16,19 @@ use std::process::ExitCode;
 
 use anyhow::{bail, Context, Result};
 use clap::Parser;
+use prt_bake::units::human_bytes;
 use prt_formats::envmap::{load_latlong, LatLongMap};
+use prt_formats::family::{reflectance_warning, Param};
+use prt_formats::pixel::{BasisMeta, MaterialMeta, MaterialParams};
 use prt_formats::vertex::BakeKind;
 use prt_formats::view::CameraSpec;
 use prt_formats::{BakeFile, MaterialOverride};
 use prt_runtime::vertex::VertexRelighter;
-use prt_runtime::{Relighter, Variant};
+use prt_runtime::{ClampedParam, Relighter, Variant};
 
 #[derive(Parser, Debug)]
 #[command(
+    name = "relight",
     version,
     about = "Relight a PRT bake file for edited materials, in milliseconds"
 )]
@@ -92,8 +96,20 @@ struct Args {
 /// Image side when --width or --height is not given.
 const DEFAULT_SIDE: u32 = 512;
 
+/// Words users type for this tool's flags (clap suggests only flags spelt alike: it offers
+/// `--camera` for `--material`).
+const SYNONYMS: &[(&str, &str)] = &[
+    ("material", "set"),
+    ("materials", "set"),
+    ("edit", "set"),
+    ("param", "set"),
+    ("environment", "env"),
+    ("envmap", "env"),
+    ("rotate", "env-rotate"),
+];
+
 fn main() -> ExitCode {
-    prt_cli::exit_code(run(Args::parse()))
+    prt_cli::exit_code(run(prt_cli::parse_args(SYNONYMS)))
 }
 
 fn run(args: Args) -> Result<()> {
@@ -128,16 +144,20 @@ fn run(args: Args) -> Result<()> {
     }
     let mut r = Relighter::from_file(file)?;
     if args.list {
-        list_materials(&r.meta().materials);
+        list_materials(&r.meta().materials, &r.meta().bases);
         return Ok(());
     }
     for o in &args.set {
         r.apply(o)?;
     }
     let (_, clamped) = r.coefficients();
-    if clamped {
-        eprintln!("warning: a shininess/alpha lies outside its basis' sampled range and was clamped to it");
-    }
+    warn_about_edits(
+        &args.set,
+        &r.clamped_params(),
+        clamped,
+        |name| r.params(name).ok(),
+        &r.meta().materials,
+    );
     let variant = if args.compressed {
         Variant::Compressed
     } else {
@@ -153,6 +173,7 @@ fn run(args: Args) -> Result<()> {
     times.sort_by(f64::total_cmp);
     let median = times[times.len() / 2];
     let out = args.out.unwrap_or_else(|| default_out(&args.bake));
+    let existed = out.exists();
     prt_formats::write_image(
         &out,
         frame.width as usize,
@@ -177,16 +198,18 @@ fn run(args: Args) -> Result<()> {
                 "read_bandwidth_gb_per_s": frame.bytes_read as f64 / median.max(1e-12) / 1e9,
                 "threads": rayon::current_num_threads(),
                 "clamped": clamped,
+                "replaced": existed,
             })
         );
     } else {
         eprintln!(
-            "relit {}x{} in {:.2} ms ({} read per frame); wrote {}",
+            "relit {}x{} in {:.2} ms ({} read per frame); wrote {}{}",
             frame.width,
             frame.height,
             median * 1e3,
-            frame.bytes_read,
-            out.display()
+            human_bytes(frame.bytes_read),
+            out.display(),
+            prt_cli::replaced(existed)
         );
     }
     Ok(())
@@ -197,17 +220,64 @@ fn default_out(bake: &Path) -> PathBuf {
     bake.with_extension("").with_extension("relit.png")
 }
 
-fn list_materials(materials: &[prt_formats::pixel::MaterialMeta]) {
+/// One line per material: name, family, editable or fixed, and its parameters by name (`ks`
+/// and the lobe parameter only for a family that has them), with the range of the lobe
+/// parameter's basis when it has one (values outside it are clamped to it).
+fn list_materials(materials: &[MaterialMeta], bases: &[BasisMeta]) {
     for m in materials {
+        let mut params = format!("kd={:?}", m.kd);
+        if m.family.has_param(Param::Ks) {
+            params += &format!(" ks={:?}", m.ks);
+        }
+        if let Some(p) = m.family.lobe_param() {
+            params += &format!(" {p}={}", m.param);
+            let range = m
+                .basis
+                .and_then(|b| bases.get(b as usize))
+                .map(|b| b.basis.param_range);
+            if let Some([lo, hi]) = range {
+                params += &format!(" (basis range [{lo}, {hi}])");
+            }
+        }
         println!(
-            "{:<20} {:<12} {} kd={:?} ks={:?} param={}",
+            "{:<20} {:<12} {} {params}",
             m.name,
             m.family,
             if m.editable { "editable" } else { "fixed   " },
-            m.kd,
-            m.ks,
-            m.param
         );
+    }
+}
+
+/// Warnings about the edited values: a lobe parameter outside its basis' range (named, with
+/// the value and the range; `clamped` without a named one means a per-vertex shading basis
+/// clamped it), and an edited material that reflects more light than it receives.
+fn warn_about_edits(
+    set: &[MaterialOverride],
+    named: &[ClampedParam],
+    clamped: bool,
+    params: impl Fn(&str) -> Option<MaterialParams>,
+    materials: &[MaterialMeta],
+) {
+    for c in named {
+        eprintln!("warning: {c}");
+    }
+    if clamped && named.is_empty() {
+        eprintln!(
+            "warning: a shininess/alpha lies outside its basis' sampled range and was clamped \
+             to it"
+        );
+    }
+    let mut edited: Vec<&str> = set.iter().map(|o| o.material.as_str()).collect();
+    edited.dedup();
+    for m in materials
+        .iter()
+        .filter(|m| edited.contains(&m.name.as_str()))
+    {
+        if let Some(p) = params(&m.name) {
+            if let Some(w) = reflectance_warning(&m.name, m.family, p.kd, p.ks) {
+                eprintln!("warning: {w}");
+            }
+        }
     }
 }
 
@@ -222,7 +292,7 @@ fn run_vertex(args: Args, file: BakeFile) -> Result<()> {
     }
     let mut r = VertexRelighter::from_file(file)?;
     if args.list {
-        list_materials(&r.meta().materials);
+        list_materials(&r.meta().materials, &r.meta().bases);
         return Ok(());
     }
     let intensity = args.env_intensity.unwrap_or(1.0);
@@ -268,9 +338,13 @@ fn run_vertex(args: Args, file: BakeFile) -> Result<()> {
     let (_, rotation0) = r.environment();
     let mut rgb = vec![0.0f32; 3 * width as usize * height as usize];
     let first = r.render(&camera, width, height, &mut rgb)?;
-    if first.clamped {
-        eprintln!("warning: a shininess/alpha lies outside its basis' sampled range and was clamped to it");
-    }
+    warn_about_edits(
+        &args.set,
+        &r.clamped_params(),
+        first.clamped,
+        |name| r.params(name).ok(),
+        &r.meta().materials,
+    );
     // Repeats change nothing but the camera (with --orbit; then they measure the view stage
     // alone) and the light's turn (with --turn: all three stages).
     // A frame's wall-clock time also counts what `render` does besides the stages (the check
@@ -306,6 +380,7 @@ fn run_vertex(args: Args, file: BakeFile) -> Result<()> {
     let frame_median = frames.get(frames.len() / 2).copied();
     let pixels: Vec<[f32; 3]> = rgb.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
     let out = args.out.clone().unwrap_or_else(|| default_out(&args.bake));
+    let existed = out.exists();
     prt_formats::write_image(
         &out,
         width as usize,
@@ -348,15 +423,18 @@ fn run_vertex(args: Args, file: BakeFile) -> Result<()> {
                 "ns_per_pixel_view": view_median * 1e9 / (f64::from(width) * f64::from(height)),
                 "threads": rayon::current_num_threads(),
                 "clamped": first.clamped,
+                "replaced": existed,
             })
         );
     } else {
         eprintln!(
-            "relit {width}x{height}: light {:.1} ms, materials {:.1} ms, view {:.1} ms; wrote {}",
+            "relit {width}x{height}: light {:.1} ms, materials {:.1} ms, view {:.1} ms; wrote \
+             {}{}",
             light_s * 1e3,
             material_s * 1e3,
             view_median * 1e3,
-            out.display()
+            out.display(),
+            prt_cli::replaced(existed)
         );
     }
     Ok(())

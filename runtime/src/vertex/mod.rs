@@ -313,6 +313,12 @@ impl VertexRelighter {
         self.materials.coefficients()
     }
 
+    /// The materials whose lobe parameter lies outside its basis' sampled range (relit at the
+    /// nearest end), each with its value and the range, for warnings that name them.
+    pub fn clamped_params(&self) -> Vec<crate::ClampedParam> {
+        self.materials.clamped_params()
+    }
+
     /// The light arriving at mesh vertex `vertex` for the current environment and materials
     /// (running the light and material stages if needed); `None` for a vertex out of range or
     /// in no group.
