@@ -278,7 +278,8 @@ def render_comparison(args, report):
 EDIT_CASE = dict(
     scene="scenes/vitrine/vitrine.gltf",
     environment="scenes/envmaps/studio.exr",
-    camera=dict(position=[-0.17, 0.2, 0.45], target=[-0.17, 0.119, 0.0], yfov=0.35),
+    # fov in degrees (the config's unit): 0.35 radians.
+    camera=dict(position=[-0.17, 0.2, 0.45], target=[-0.17, 0.119, 0.0], fov=20.053523),
     material="sphere",
     baked=dict(editable=True, family="ggx", kd=[0.1, 0.1, 0.1], ks=0.6, alpha=0.12),
 )

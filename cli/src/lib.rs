@@ -22,6 +22,58 @@ pub fn exit_code(result: anyhow::Result<()>) -> ExitCode {
     }
 }
 
+/// Parses the tool's arguments like `T::parse()`, with one addition to clap's suggestions: an
+/// unknown flag that is a word users type for one of the tool's flags (`synonyms`: the word
+/// without dashes, the flag's long name) gets that flag as the suggestion (`bake --sample 16`:
+/// "a similar argument exists: '--spp'"). Clap suggests only flags spelt alike, and `--sample`
+/// is not spelt like `--spp`. Errors, `--help` and `--version` exit as clap's do.
+pub fn parse_args<T: clap::Parser>(synonyms: &[(&str, &str)]) -> T {
+    parse_args_from(std::env::args_os(), synonyms).unwrap_or_else(|e| e.exit())
+}
+
+/// [`parse_args`] on the given arguments (the first is the program's name), for tests.
+pub fn parse_args_from<T: clap::Parser>(
+    args: impl IntoIterator<Item = impl Into<std::ffi::OsString> + Clone>,
+    synonyms: &[(&str, &str)],
+) -> Result<T, clap::Error> {
+    use clap::error::{ContextKind, ContextValue, ErrorKind};
+    T::try_parse_from(args).map_err(|mut e| {
+        if e.kind() != ErrorKind::UnknownArgument {
+            return e;
+        }
+        let Some(ContextValue::String(given)) = e.get(ContextKind::InvalidArg) else {
+            return e;
+        };
+        let word = given.trim_start_matches('-');
+        let word = word.split_once('=').map_or(word, |(w, _)| w);
+        if let Some((_, flag)) = synonyms.iter().find(|(w, _)| w.eq_ignore_ascii_case(word)) {
+            e.insert(
+                ContextKind::SuggestedArg,
+                ContextValue::String(format!("--{flag}")),
+            );
+            // Clap's other tip for an unknown flag ("to pass '--sample' as a value, use
+            // '-- --sample'") would only mislead next to the right flag, and its usage line
+            // shows the flag it suggested itself (`--camera` for `--material`): the plain one.
+            e.insert(ContextKind::Suggested, ContextValue::StyledStrs(Vec::new()));
+            e.insert(
+                ContextKind::Usage,
+                ContextValue::StyledStr(<T as clap::CommandFactory>::command().render_usage()),
+            );
+        }
+        e
+    })
+}
+
+/// What a summary line adds when the tool replaced an existing file: `existed` is whether the
+/// file was there before the tool wrote it.
+pub fn replaced(existed: bool) -> &'static str {
+    if existed {
+        " (replaced the previous file)"
+    } else {
+        ""
+    }
+}
+
 /// Shows a library's progress on stderr: a bar per stage when stderr is a terminal, else (a log
 /// file, CI) a plain line now and then ([`PlainProgress`]); notes and warnings as lines.
 /// `quiet` shows warnings only.

@@ -151,6 +151,40 @@ impl Family {
     }
 }
 
+/// The warning for a material that reflects more light than it receives, or `None`: when
+/// `kd + ks` (`ks` only for a family with a specular lobe) exceeds 1 in some channel. Every
+/// family here is `Kd / pi` plus `Ks` times a lobe that reflects at most all it receives, so
+/// `kd + ks <= 1` per channel keeps a material physical (furnace-safe). Such values are accepted
+/// (they make a picture, and may be wanted), but rarely meant: the warning names the material,
+/// the channel, the values and the range. The baker's config and the runtime's `--set` share it.
+pub fn reflectance_warning(
+    material: &str,
+    family: Family,
+    kd: [f32; 3],
+    ks: [f32; 3],
+) -> Option<String> {
+    let with_ks = family.has_param(Param::Ks);
+    // The first channel with the largest sum (red when they are equal).
+    let (channel, sum) = (0..3)
+        .map(|c| (c, kd[c] + if with_ks { ks[c] } else { 0.0 }))
+        .reduce(|best, next| if next.1 > best.1 { next } else { best })?;
+    if sum.is_nan() || sum <= 1.0 {
+        return None;
+    }
+    let name = ["red", "green", "blue"][channel];
+    let values = if with_ks {
+        format!("kd + ks = {} + {} = {sum}", kd[channel], ks[channel])
+    } else {
+        format!("kd = {sum}")
+    };
+    Some(format!(
+        "material `{material}` reflects more light than it receives: {values} in the {name} \
+         channel, above 1 ({}{} must lie in [0, 1] per channel for a physical material)",
+        "kd",
+        if with_ks { " + ks" } else { "" }
+    ))
+}
+
 impl fmt::Display for Family {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())
@@ -182,6 +216,32 @@ mod tests {
             assert_eq!(serde_json::from_str::<Family>(&json).unwrap(), f);
         }
         assert!("velvet".parse::<Family>().is_err());
+    }
+
+    #[test]
+    fn materials_reflecting_more_than_they_receive_are_named() {
+        let w = reflectance_warning("bunny", Family::Diffuse, [1.5, 0.2, 0.2], [0.0; 3])
+            .expect("kd 1.5 warns");
+        assert!(
+            w.contains("`bunny`") && w.contains("kd = 1.5") && w.contains("red"),
+            "{w}"
+        );
+        assert!(w.contains("[0, 1]"), "{w}");
+        let w = reflectance_warning("ball", Family::Ggx, [0.2, 0.7, 0.2], [0.1, 0.4, 0.1])
+            .expect("kd + ks 1.1 warns");
+        assert!(
+            w.contains("`ball`") && w.contains("0.7 + 0.4") && w.contains("green"),
+            "{w}"
+        );
+        // At 1 exactly, and a diffuse material's unused ks: no warning.
+        assert_eq!(
+            reflectance_warning("m", Family::BlinnPhong, [0.5; 3], [0.5; 3]),
+            None
+        );
+        assert_eq!(
+            reflectance_warning("m", Family::Diffuse, [0.9; 3], [0.9; 3]),
+            None
+        );
     }
 
     #[test]

@@ -7,7 +7,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::{BakeConfig, ConfigError, MaterialConfig};
+use super::{default_environment_map, BakeConfig, ConfigError, EnvironmentConfig, MaterialConfig};
 use crate::scene::{Scene, SceneError};
 
 /// The file a scene folder must hold.
@@ -29,6 +29,9 @@ pub enum InputKind {
 pub struct ResolvedInput {
     pub kind: InputKind,
     pub config: BakeConfig,
+    /// Warnings about the config (deprecated keys, with what to write instead), for the tool
+    /// to show.
+    pub warnings: Vec<String>,
 }
 
 /// Why an input is none of the accepted forms.
@@ -83,9 +86,11 @@ pub fn resolve(path: &Path) -> Result<ResolvedInput, InputError> {
         if !config.is_file() {
             return Err(wrong(WrongForm::FolderWithoutConfig));
         }
+        let (config, warnings) = BakeConfig::from_file_with_warnings(config)?;
         return Ok(ResolvedInput {
             kind: InputKind::SceneFolder,
-            config: BakeConfig::from_file(config)?,
+            config,
+            warnings,
         });
     }
     let ext = path
@@ -93,14 +98,19 @@ pub fn resolve(path: &Path) -> Result<ResolvedInput, InputError> {
         .map(|e| e.to_string_lossy().to_ascii_lowercase());
     match ext.as_deref() {
         // A missing .toml is reported by the config reader (it names the config).
-        Some("toml") => Ok(ResolvedInput {
-            kind: InputKind::Config,
-            config: BakeConfig::from_file(path)?,
-        }),
+        Some("toml") => {
+            let (config, warnings) = BakeConfig::from_file_with_warnings(path)?;
+            Ok(ResolvedInput {
+                kind: InputKind::Config,
+                config,
+                warnings,
+            })
+        }
         _ if !path.exists() => Err(wrong(WrongForm::Missing)),
         Some("gltf" | "glb") => Ok(ResolvedInput {
             kind: InputKind::Gltf,
             config: defaults_for_gltf(path)?,
+            warnings: Vec::new(),
         }),
         _ => Err(wrong(WrongForm::UnknownExtension)),
     }
@@ -108,9 +118,11 @@ pub fn resolve(path: &Path) -> Result<ResolvedInput, InputError> {
 
 /// The config `bake` uses for a bare glTF: as if a `bake.toml` beside it said only
 /// `scene = "<file>"` ([`BakeConfig::with_defaults`]: pixel mode, 256 x 256, 64 spp, two
-/// reflections, seed 0, black environment), plus:
+/// reflections, seed 0), plus:
 ///
 /// * `output` = `out/<glTF file stem>.prtbake` beside the glTF;
+/// * `[environment]`: [`default_environment_map`] (most glTF models bring no light of their
+///   own; under the black default they would bake to a black image);
 /// * `[camera]`: none when the glTF has a perspective camera (it is used), else
 ///   [`crate::scene::framing_camera`] (the scene's bounding box, seen from +Z and a little
 ///   above);
@@ -132,6 +144,11 @@ pub fn defaults_for_gltf(path: &Path) -> Result<BakeConfig, SceneError> {
         config.camera = Some(crate::scene::framing_camera(&scene.positions, aspect));
     }
     config.materials = editable_defaults(&scene);
+    config.environment = EnvironmentConfig::Map {
+        path: default_environment_map(),
+        intensity: 1.0,
+        rotation: 0.0,
+    };
     Ok(config)
 }
 

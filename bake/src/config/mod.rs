@@ -95,19 +95,33 @@ pub struct BasisConfig {
 
 pub use vertex::{VertexConfig, DEFAULT_SECONDARY, MAX_SECONDARY};
 
-/// The `[camera]` table: a pinhole camera replacing the glTF's (docs/config.md).
+/// The `[camera]` table: a pinhole camera replacing the glTF's (docs/config.md). It is the
+/// camera `--camera "eye=.. target=.. fov=.."` gives ([`CameraConfig::spec`]), in the same
+/// unit: every angle a user types is in degrees (docs/conventions.md, "Space and units").
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CameraConfig {
     /// The eye, world space.
     pub position: Vec3,
     /// The point looked at; the image's up is as close to +Y as the view allows.
     pub target: Vec3,
-    /// Vertical field of view, radians, in (0, pi).
-    pub yfov: f32,
+    /// Vertical field of view, degrees, in (0, 180).
+    pub fov: f32,
 }
 
-/// `[camera]`'s default `yfov`: 45 degrees.
-pub const DEFAULT_YFOV: f32 = std::f32::consts::FRAC_PI_4;
+impl CameraConfig {
+    /// The same camera as a `--camera` argument, whose frame
+    /// ([`prt_formats::view::CameraSpec::frame`]) is the camera the baker renders through.
+    pub fn spec(&self) -> prt_formats::view::CameraSpec {
+        prt_formats::view::CameraSpec {
+            eye: self.position.to_array(),
+            target: self.target.to_array(),
+            fov_deg: self.fov,
+        }
+    }
+}
+
+/// `[camera]`'s default `fov`: 45 degrees.
+pub const DEFAULT_FOV: f32 = 45.0;
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct BakeConfig {
@@ -187,9 +201,33 @@ impl BakeConfig {
         Self::parse(&text, path)
     }
 
+    /// Like [`BakeConfig::from_file`], with the warnings about keys that are accepted but
+    /// deprecated (each names the key to write instead and its value), for tools to show.
+    pub fn from_file_with_warnings(
+        path: impl AsRef<Path>,
+    ) -> Result<(BakeConfig, Vec<String>), ConfigError> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Self::parse_with_warnings(&text, path)
+    }
+
     /// Parses and validates config text as if it had been read from `config_path` (which need
-    /// not exist; it names the config in errors and anchors relative paths).
+    /// not exist; it names the config in errors and anchors relative paths). Warnings about
+    /// deprecated keys are dropped ([`BakeConfig::parse_with_warnings`] returns them).
     pub fn parse(text: &str, config_path: impl AsRef<Path>) -> Result<BakeConfig, ConfigError> {
+        Self::parse_with_warnings(text, config_path).map(|(config, _)| config)
+    }
+
+    /// Like [`BakeConfig::parse`], with the warnings about deprecated keys (e.g. `[camera]
+    /// yfov` in radians, now `fov` in degrees): each names the config, the key to write
+    /// instead and the converted value.
+    pub fn parse_with_warnings(
+        text: &str,
+        config_path: impl AsRef<Path>,
+    ) -> Result<(BakeConfig, Vec<String>), ConfigError> {
         let config_path = config_path.as_ref().to_path_buf();
         let raw: RawConfig = toml::from_str(text).map_err(|source| ConfigError::Parse {
             path: config_path.clone(),
@@ -231,6 +269,19 @@ impl BakeConfig {
             .find(|(n, _)| n == name)
             .map(|(_, m)| m)
     }
+}
+
+/// The environment a bare glTF is baked under: `scenes/envmaps/neutral.hdr` of the source tree
+/// this program was built from, a soft, colourless studio light (a bright sky dome, a large
+/// soft key light high in front on the left, a dark gray floor; made by
+/// `scenes/envmaps/neutral.py`, described in docs/config.md). `--print-config` writes its
+/// absolute path.
+pub fn default_environment_map() -> PathBuf {
+    let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
+    manifest
+        .parent()
+        .unwrap_or(manifest)
+        .join("scenes/envmaps/neutral.hdr")
 }
 
 /// `out/<name>.prtbake` in the config's folder, where name is the config's stem, or the
@@ -292,6 +343,8 @@ struct RawConfig {
 struct RawCamera {
     position: [f32; 3],
     target: [f32; 3],
+    fov: Option<f32>,
+    /// Deprecated: the field of view in radians (accepted with a warning naming `fov`).
     yfov: Option<f32>,
 }
 
@@ -387,9 +440,18 @@ impl<'de, T: Deserialize<'de>> Deserialize<'de> for OrderedTables<T> {
 
 struct Checker<'a> {
     path: &'a Path,
+    /// Deprecation warnings, each naming the config.
+    warnings: std::cell::RefCell<Vec<String>>,
 }
 
 impl Checker<'_> {
+    fn warn(&self, key: &str, message: impl std::fmt::Display) {
+        self.warnings.borrow_mut().push(format!(
+            "bake config {}: `{key}`: {message}",
+            self.path.display()
+        ));
+    }
+
     fn err(&self, key: &str, message: impl Into<String>) -> ConfigError {
         ConfigError::Invalid {
             path: self.path.to_path_buf(),
@@ -441,8 +503,11 @@ impl Checker<'_> {
 }
 
 impl RawConfig {
-    fn validate(self, config_path: PathBuf) -> Result<BakeConfig, ConfigError> {
-        let c = Checker { path: &config_path };
+    fn validate(self, config_path: PathBuf) -> Result<(BakeConfig, Vec<String>), ConfigError> {
+        let c = Checker {
+            path: &config_path,
+            warnings: Default::default(),
+        };
         let scene_path = c.file_path("scene", &self.scene)?;
         let output = match &self.output {
             Some(o) => c.file_path("output", o)?,
@@ -555,8 +620,8 @@ impl RawConfig {
             Some(_) if mode == Mode::Vertex => {
                 return Err(c.err(
                     "emission_oversampling",
-                    "applies to the camera's samples of a per-pixel bake; a per-vertex bake \
-                     has none",
+                    "per-pixel only: remove this key for mode = \"vertex\" (it sets the \
+                     camera's samples of a per-pixel bake; a per-vertex bake has none)",
                 ))
             }
             Some(k) => c.range_u32("emission_oversampling", k, 1, MAX_EMISSION_OVERSAMPLING)?,
@@ -566,7 +631,7 @@ impl RawConfig {
             v.validate(&c, mode)?;
         }
 
-        Ok(BakeConfig {
+        let config = BakeConfig {
             config_path: config_path.clone(),
             scene_path,
             output,
@@ -583,7 +648,8 @@ impl RawConfig {
             basis: self.basis,
             camera,
             vertex: self.vertex,
-        })
+        };
+        Ok((config, c.warnings.take()))
     }
 }
 
@@ -596,25 +662,72 @@ fn validate_camera(c: &Checker, cam: RawCamera) -> Result<CameraConfig, ConfigEr
     if !target.is_finite() {
         return Err(c.err("camera.target", format!("{target:?} is not finite")));
     }
-    let forward = (target - position).normalize_or_zero();
-    if forward == Vec3::ZERO {
+    if target == position {
         return Err(c.err("camera.target", "must differ from `camera.position`"));
     }
-    if forward.cross(Vec3::Y).normalize_or_zero() == Vec3::ZERO {
-        return Err(c.err(
-            "camera.target",
-            "the camera looks straight up or down; +Y must not be the view direction",
-        ));
-    }
-    let yfov = cam.yfov.unwrap_or(DEFAULT_YFOV);
-    if !(yfov.is_finite() && yfov > 0.0 && yfov < std::f32::consts::PI) {
-        return Err(c.err("camera.yfov", format!("{yfov} must be in (0, pi) radians")));
-    }
-    Ok(CameraConfig {
+    let fov = match (cam.fov, cam.yfov) {
+        (Some(_), Some(_)) => {
+            return Err(c.err(
+                "camera.yfov",
+                "give `fov` (degrees) only: `yfov` is its deprecated form in radians",
+            ))
+        }
+        (Some(fov), None) => {
+            if !(fov.is_finite() && fov > 0.0 && fov < 180.0) {
+                return Err(c.err(
+                    "camera.fov",
+                    format!("{fov} must be in (0, 180) degrees (the vertical field of view)"),
+                ));
+            }
+            fov
+        }
+        (None, Some(yfov)) => {
+            if !(yfov.is_finite() && yfov > 0.0 && yfov < std::f32::consts::PI) {
+                return Err(c.err(
+                    "camera.yfov",
+                    format!(
+                        "{yfov} radians is not in (0, pi); `yfov` is deprecated: write the \
+                         vertical field of view in degrees as `fov` (e.g. `fov = {yfov}` for \
+                         {yfov} degrees)"
+                    ),
+                ));
+            }
+            // To 1e-4 degree, so that 40 degrees written in radians reads back as 40 (and
+            // `--print-config` writes `fov = 40.0`), not 39.999996; unrounded where rounding
+            // would reach 0 or 180.
+            let degrees = yfov.to_degrees();
+            let rounded = (degrees * 1e4).round() / 1e4;
+            let fov = if rounded > 0.0 && rounded < 180.0 {
+                rounded
+            } else {
+                degrees
+            };
+            c.warn(
+                "camera.yfov",
+                format!(
+                    "deprecated (radians): write `fov = {fov}` (degrees) instead of \
+                     `yfov = {yfov}`"
+                ),
+            );
+            fov
+        }
+        (None, None) => DEFAULT_FOV,
+    };
+    let camera = CameraConfig {
         position,
         target,
-        yfov,
-    })
+        fov,
+    };
+    // The frame `--camera` would give this view: refused for the same views (straight up or
+    // down), so a config and a command line accept the same cameras and render the same one.
+    if let Err(e) = camera.spec().frame() {
+        let reason = match e {
+            prt_formats::view::CameraSpecError::Invalid { reason, .. } => reason,
+            other => other.to_string(),
+        };
+        return Err(c.err("camera.target", reason));
+    }
+    Ok(camera)
 }
 
 fn validate_material(

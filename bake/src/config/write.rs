@@ -1,7 +1,8 @@
 //! A [`BakeConfig`] written back as TOML ([`BakeConfig::to_toml`]), e.g. for
 //! `bake model.glb --print-config > bake.toml`. Parsing the text again (from the same config
-//! path) gives the same config, value for value: every key is written explicitly, paths
-//! relative to the config's folder, and every float in a form that reads back to the same f32.
+//! path) gives the same config, value for value: every key is written explicitly (but
+//! `emission_oversampling` at its default: the key is per-pixel only), paths relative to the
+//! config's folder, and every float in a form that reads back to the same f32.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -9,6 +10,7 @@ use std::path::Path;
 use glam::Vec3;
 
 use super::{BakeConfig, EnvironmentConfig, MissingNormals, Mode};
+use crate::film_emission::DEFAULT_EMISSION_OVERSAMPLING;
 
 impl BakeConfig {
     /// The config as TOML text that [`BakeConfig::parse`] (given the same `config_path`) turns
@@ -32,7 +34,9 @@ impl BakeConfig {
         let _ = writeln!(w, "width = {}", self.width);
         let _ = writeln!(w, "height = {}", self.height);
         let _ = writeln!(w, "spp = {}", self.spp);
-        if self.mode == Mode::Pixel {
+        // Per-pixel only, so written only when it is not the default: then changing `mode` to
+        // "vertex" is all a printed per-pixel config needs (the vertex parser refuses the key).
+        if self.mode == Mode::Pixel && self.emission_oversampling != DEFAULT_EMISSION_OVERSAMPLING {
             let _ = writeln!(w, "emission_oversampling = {}", self.emission_oversampling);
         }
         let _ = writeln!(w, "reflections = {}", self.reflections);
@@ -63,7 +67,7 @@ impl BakeConfig {
             let _ = writeln!(w, "\n[camera]");
             let _ = writeln!(w, "position = {}", vec3(cam.position));
             let _ = writeln!(w, "target = {}", vec3(cam.target));
-            let _ = writeln!(w, "yfov = {}", float(cam.yfov));
+            let _ = writeln!(w, "fov = {}", float(cam.fov));
         }
 
         for (name, m) in &self.materials {

@@ -37,12 +37,16 @@ use crate::shard::ShardSpec;
 /// (skipped primitives, ignored glTF features) go to `progress`. `config_path` may name what
 /// `bake` accepts: a config, a scene folder holding `bake.toml`, or a glTF (its defaults).
 pub fn load(config_path: &Path, progress: &dyn Progress) -> Result<(BakeConfig, Scene), BakeError> {
-    let config = crate::config::input::resolve(config_path)?.config;
-    let scene = load_scene(&config, progress)?;
-    Ok((config, scene))
+    let resolved = crate::config::input::resolve(config_path)?;
+    for w in &resolved.warnings {
+        progress.warn(w);
+    }
+    let scene = load_scene(&resolved.config, progress)?;
+    Ok((resolved.config, scene))
 }
 
-/// Loads a config's scene, refusing one with nothing to trace; warnings go to `progress`.
+/// Loads a config's scene, refusing one with nothing to trace; warnings go to `progress`
+/// (among them [`crate::scene::unlit_warning`]: nothing lights the scene).
 pub fn load_scene(config: &BakeConfig, progress: &dyn Progress) -> Result<Scene, BakeError> {
     let (scene, warnings) = crate::scene::load_with_warnings(config)?;
     for w in &warnings {
@@ -50,6 +54,9 @@ pub fn load_scene(config: &BakeConfig, progress: &dyn Progress) -> Result<Scene,
     }
     if scene.triangles.is_empty() {
         return Err(BakeError::NoTriangles(config.scene_path.clone()));
+    }
+    if let Some(w) = crate::scene::unlit_warning(config, &scene) {
+        progress.warn(&w);
     }
     Ok(scene)
 }

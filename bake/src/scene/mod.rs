@@ -19,7 +19,7 @@ pub use gltf::material::{
     alpha_to_shininess, resolve_brdf, GltfPbr, DEFAULT_KS, DEFAULT_MATERIAL_NAME,
 };
 pub use gltf::texture::srgb_to_linear;
-pub use gltf::{load, load_with_warnings};
+pub use gltf::{load, load_with_warnings, unlit_warning};
 
 /// A linear-RGB texture (sRGB-encoded glTF base-colour/emissive textures are decoded on load).
 #[derive(Clone, Debug)]
@@ -139,5 +139,26 @@ pub struct Scene {
 impl Scene {
     pub fn material_index(&self, name: &str) -> Option<usize> {
         self.materials.iter().position(|m| m.name == name)
+    }
+
+    /// Whether anything lights the scene: a material that emits on some triangle, a punctual
+    /// light of non-zero intensity, or an environment that is not black everywhere.
+    pub fn has_light(&self) -> bool {
+        let emitting: Vec<bool> = self.materials.iter().map(Material::is_emissive).collect();
+        let emitter = self
+            .triangle_material
+            .iter()
+            .any(|&m| emitting.get(m as usize).copied().unwrap_or(false));
+        let light = self.lights.iter().any(|l| match *l {
+            PunctualLight::Point { intensity, .. } | PunctualLight::Spot { intensity, .. } => {
+                intensity.max_element() > 0.0
+            }
+            PunctualLight::Directional { irradiance, .. } => irradiance.max_element() > 0.0,
+        });
+        let environment = match &self.environment {
+            Environment::Constant(c) => c.max_element() > 0.0,
+            Environment::LatLong { texels, .. } => texels.iter().any(|t| t.max_element() > 0.0),
+        };
+        emitter || light || environment
     }
 }

@@ -73,10 +73,12 @@ fn prepare(scene: &Scene, max_unit: usize, weld: bool) -> PreparedScene {
             unused += 1;
             continue;
         };
+        // -0 and +0 are one value: a face normal (0, -0, 1) welds with (0, 0, 1).
+        let bits = |c: f32| (c + 0.0).to_bits();
         let key = (
-            scene.positions[v].to_array().map(f32::to_bits),
-            normals[v].to_array().map(f32::to_bits),
-            scene.uvs[v].to_array().map(f32::to_bits),
+            scene.positions[v].to_array().map(bits),
+            normals[v].to_array().map(bits),
+            scene.uvs[v].to_array().map(bits),
             m,
         );
         let id = if weld {
@@ -217,9 +219,10 @@ mod tests {
         let a = b.material("a", BrdfParams::diffuse(Vec3::ONE), Vec3::ZERO, false);
         let c = b.material("c", BrdfParams::diffuse(Vec3::ONE), Vec3::ZERO, false);
         let tri = [Vec3::ZERO, Vec3::X, Vec3::Z];
-        // Same positions: facing up, facing up again (welds), facing down, another material.
+        // Same positions: facing up, facing up again with -0 components (welds: a cross
+        // product's zeros come with either sign), facing down, another material.
         b.mesh(&tri, &[Vec3::Y; 3], &[[0, 2, 1]], a);
-        b.mesh(&tri, &[Vec3::Y; 3], &[[0, 2, 1]], a);
+        b.mesh(&tri, &[Vec3::new(-0.0, 1.0, -0.0); 3], &[[0, 2, 1]], a);
         b.mesh(&tri, &[Vec3::NEG_Y; 3], &[[0, 1, 2]], a);
         b.mesh(&tri, &[Vec3::Y; 3], &[[0, 2, 1]], c);
         let mut s = b.build();

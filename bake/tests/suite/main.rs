@@ -9,3 +9,4 @@ mod emission;
 mod render_analytic;
 mod scene_loading;
 mod shading_basis;
+mod user_input;

@@ -1402,7 +1402,16 @@ fn input_glb_bakes_with_defaults() {
     assert_eq!(c.mode, Mode::Pixel);
     assert_eq!((c.width, c.height, c.spp, c.reflections), (256, 256, 64, 2));
     assert_eq!(c.output, scenes_dir().join("furnace/out/furnace.prtbake"));
-    assert_eq!(c.environment, EnvironmentConfig::Color(Vec3::ZERO));
+    // Under the neutral studio map shipped with the project (a bare glTF rarely brings lights).
+    assert_eq!(
+        c.environment,
+        EnvironmentConfig::Map {
+            path: prt_bake::config::default_environment_map(),
+            intensity: 1.0,
+            rotation: 0.0
+        }
+    );
+    assert!(prt_bake::config::default_environment_map().is_file());
     // The GLB has a camera, so the config names none and the glTF's is used.
     assert!(c.camera.is_none());
     let editable_diffuse = MaterialConfig {
@@ -1536,7 +1545,7 @@ fn config_camera_table() {
     .unwrap();
     let cam = c.camera.unwrap();
     assert_eq!(cam.position, Vec3::new(0.0, 1.0, 5.0));
-    assert_eq!(cam.yfov, prt_bake::config::DEFAULT_YFOV);
+    assert_eq!(cam.fov, prt_bake::config::DEFAULT_FOV);
     assert_roundtrip(&c);
     for (body, key) in [
         ("position = [0, 0, 0]\ntarget = [0, 0, 0]", "camera.target"),
@@ -1546,7 +1555,22 @@ fn config_camera_table() {
             "camera.yfov",
         ),
         ("position = [0, 0, 1]", "target"),
-        ("position = [0, 0, 1]\ntarget = [0, 0, 0]\nfov = 1", "fov"),
+        (
+            "position = [0, 0, 1]\ntarget = [0, 0, 0]\nfov = 180",
+            "camera.fov",
+        ),
+        (
+            "position = [0, 0, 1]\ntarget = [0, 0, 0]\nfov = 0",
+            "camera.fov",
+        ),
+        (
+            "position = [0, 0, 1]\ntarget = [0, 0, 0]\nfov = 40\nyfov = 0.7",
+            "camera.yfov",
+        ),
+        (
+            "position = [0, 0, 1]\ntarget = [0, 0, 0]\nfovy = 40",
+            "fovy",
+        ),
     ] {
         let e = config_err(&format!("scene = \"x.gltf\"\n[camera]\n{body}\n"));
         assert!(e.contains(key), "{body:?}: {e}");

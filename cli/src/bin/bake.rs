@@ -12,6 +12,9 @@
 //! with `--keep-traced` recompresses a finished one with other `[vertex]` compression keys.
 //! Shards (docs/shards.md): `--shard I/N`, or a scheduler's job-array variables.
 //!
+//! A bake replaces an existing file at its output path (written atomically when the bake is
+//! done); `bake` says so when it starts and in its summary (`"replaced": true` with `--json`).
+//!
 //! Measurements and reports are the `bench` binary's (crate `prt-bench`).
 
 use std::path::PathBuf;
@@ -33,6 +36,7 @@ use prt_cli::{parse_size, Stderr};
 
 #[derive(Parser, Debug)]
 #[command(
+    name = "bake",
     version,
     about = "PRT baker: bakes transfer tensors for editable-material relighting"
 )]
@@ -80,7 +84,8 @@ struct BakeArgs {
     /// Print the config (TOML) that INPUT resolves to on stdout and exit without baking.
     #[arg(long)]
     print_config: bool,
-    /// Samples per pixel, or per vertex in vertex mode (default: the config's `spp`).
+    /// Samples per pixel, or per vertex in vertex mode (default: the config's `spp`; 64 when
+    /// it has none).
     #[arg(long)]
     spp: Option<u32>,
     /// Image width (pixel mode only).
@@ -138,8 +143,11 @@ struct BakeArgs {
     json: bool,
 }
 
+/// Words users type for this tool's flags (clap suggests only flags spelt alike).
+const SYNONYMS: &[(&str, &str)] = &[("sample", "spp"), ("samples", "spp"), ("output", "out")];
+
 fn main() -> ExitCode {
-    prt_cli::exit_code(run(Cli::parse()))
+    prt_cli::exit_code(run(prt_cli::parse_args(SYNONYMS)))
 }
 
 fn parse_shard(text: &str) -> Result<ShardSpec, String> {
@@ -155,16 +163,18 @@ fn run(cli: Cli) -> Result<()> {
     }) = cli.command
     {
         let progress = Stderr::new(quiet || json);
+        let existed = out.exists();
         let summary = run_merge(&shards, &out, &progress)?;
         if json {
-            print_json(&summary)?;
+            print_json(&summary, existed)?;
         } else {
             eprintln!(
-                "merged {} {} shards ({} units) into {} in {:.2} s: {}",
+                "merged {} {} shards ({} units) into {}{} in {:.2} s: {}",
                 summary.shards,
                 summary.mode,
                 summary.units,
                 summary.output.display(),
+                prt_cli::replaced(existed),
                 summary.seconds,
                 human_bytes(summary.file_bytes)
             );
@@ -183,11 +193,14 @@ fn run(cli: Cli) -> Result<()> {
 fn bake(input: &std::path::Path, a: &BakeArgs) -> Result<()> {
     use prt_bake::config::input::{self, InputKind};
     let resolved = input::resolve(input)?;
+    let progress = Stderr::new(a.quiet || a.json);
+    for w in &resolved.warnings {
+        progress.warn(w);
+    }
     if a.print_config {
         print!("{}", resolved.config.to_toml());
         return Ok(());
     }
-    let progress = Stderr::new(a.quiet || a.json);
     if resolved.kind == InputKind::Gltf {
         progress.note(&format!(
             "{}: baking with this config (save it with --print-config):\n{}",
@@ -206,14 +219,26 @@ fn bake(input: &std::path::Path, a: &BakeArgs) -> Result<()> {
             None => None,
         },
     };
+    let output = a.out.clone().unwrap_or_else(|| config.output.clone());
+    let output = match shard {
+        Some(spec) => prt_bake::run::shard_output(&output, spec),
+        None => output,
+    };
+    let existed = output.exists();
+    if existed {
+        progress.note(&format!(
+            "{} exists; this bake replaces it when it is done (until then it stays as it is)",
+            output.display()
+        ));
+    }
     let scene = load_scene(&config, &progress)?;
     let precision = a.precision.map(|p| match p {
         PrecisionArg::F32 => Precision::F32,
         PrecisionArg::F16 => Precision::F16,
     });
     match config.mode {
-        Mode::Pixel => bake_pixel(&config, &scene, a, precision, shard, &progress),
-        Mode::Vertex => bake_vertex(&config, &scene, a, precision, shard, &progress),
+        Mode::Pixel => bake_pixel(&config, &scene, a, precision, shard, &progress, existed),
+        Mode::Vertex => bake_vertex(&config, &scene, a, precision, shard, &progress, existed),
     }
 }
 
@@ -224,6 +249,7 @@ fn bake_pixel(
     precision: Option<Precision>,
     shard: Option<ShardSpec>,
     progress: &Stderr,
+    existed: bool,
 ) -> Result<()> {
     for (given, flag) in [
         (a.resume && shard.is_none(), "--resume"),
@@ -252,14 +278,15 @@ fn bake_pixel(
     };
     let summary = run_pixel(config, scene, &settings, progress)?;
     if a.json {
-        print_json(&summary)?;
+        print_json(&summary, existed)?;
     } else {
         eprintln!(
-            "baked {}{} in {:.2} s ({:.2} Mrays/s): {}",
+            "baked {}{}{} in {:.2} s ({:.2} Mrays/s): {}",
             summary.output.display(),
             summary
                 .shard
                 .map_or(String::new(), |s| format!(" (shard {s})")),
+            prt_cli::replaced(existed),
             summary.seconds,
             summary.timings.rays_per_second / 1e6,
             human_bytes(summary.file_bytes)
@@ -275,6 +302,7 @@ fn bake_vertex(
     precision: Option<Precision>,
     shard: Option<ShardSpec>,
     progress: &Stderr,
+    existed: bool,
 ) -> Result<()> {
     // Flags of the per-pixel image have no meaning here: refuse rather than ignore them.
     for (given, flag) in [
@@ -308,14 +336,15 @@ fn bake_vertex(
     };
     let summary = run_vertex(config, scene, &settings, progress)?;
     if a.json {
-        print_json(&summary)?;
+        print_json(&summary, existed)?;
     } else {
         eprintln!(
-            "baked {}{} in {:.2} s ({} vertices, {:.0} vertices/s, {:.2} Mrays/s): {}",
+            "baked {}{}{} in {:.2} s ({} vertices, {:.0} vertices/s, {:.2} Mrays/s): {}",
             summary.output.display(),
             summary
                 .shard
                 .map_or(String::new(), |s| format!(" (shard {s})")),
+            prt_cli::replaced(existed),
             summary.seconds,
             summary.vertices,
             summary.timings.vertices_per_second,
@@ -326,14 +355,16 @@ fn bake_vertex(
     Ok(())
 }
 
-/// The summary as one JSON object, with the process's peak resident memory.
-fn print_json(summary: &impl serde::Serialize) -> Result<()> {
+/// The summary as one JSON object, with the process's peak resident memory and whether the
+/// bake replaced an existing file.
+fn print_json(summary: &impl serde::Serialize, replaced: bool) -> Result<()> {
     let mut out = serde_json::to_value(summary)?;
     if let Some(o) = out.as_object_mut() {
         o.insert(
             "peak_resident_bytes".into(),
             prt_cli::peak_resident_bytes().into(),
         );
+        o.insert("replaced".into(), replaced.into());
     }
     println!("{out}");
     Ok(())

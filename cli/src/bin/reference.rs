@@ -19,6 +19,7 @@ use prt_formats::MaterialOverride;
 
 #[derive(Parser, Debug)]
 #[command(
+    name = "reference",
     version,
     about = "Reference path tracer: the ground truth a bake is checked against"
 )]
@@ -71,8 +72,18 @@ struct Args {
     json: bool,
 }
 
+/// Words users type for this tool's flags (clap suggests only flags spelt alike).
+const SYNONYMS: &[(&str, &str)] = &[
+    ("sample", "spp"),
+    ("samples", "spp"),
+    ("material", "set"),
+    ("materials", "set"),
+    ("output", "out"),
+    ("environment", "env"),
+];
+
 fn main() -> ExitCode {
-    prt_cli::exit_code(run(Args::parse()))
+    prt_cli::exit_code(run(prt_cli::parse_args(SYNONYMS)))
 }
 
 fn run(args: Args) -> Result<()> {
@@ -80,6 +91,16 @@ fn run(args: Args) -> Result<()> {
     let (config, mut scene) = load(&args.config, &progress)?;
     for o in &args.set {
         apply_override(&mut scene, o)?;
+    }
+    for m in &scene.materials {
+        if args.set.iter().any(|o| o.material == m.name) {
+            let (kd, ks) = (m.brdf.kd.to_array(), m.brdf.ks.to_array());
+            if let Some(w) =
+                prt_formats::family::reflectance_warning(&m.name, m.brdf.family, kd, ks)
+            {
+                progress.warn(&w);
+            }
+        }
     }
     if let Some(path) = &args.env {
         let (env, report) = load_latlong(path, args.env_intensity)
@@ -145,6 +166,7 @@ fn run(args: Args) -> Result<()> {
     let (w, h) = (width as usize, height as usize);
     let exr = out.with_extension("exr");
     let png = out.with_extension("png");
+    let existed = exr.exists() || png.exists();
     prt_formats::write_exr(&exr, w, h, &rgb)?;
     prt_formats::write_png(&png, w, h, &rgb, args.exposure)?;
     let mean = r.mean();
@@ -183,11 +205,12 @@ fn run(args: Args) -> Result<()> {
         println!("{json}");
     } else {
         eprintln!(
-            "rendered {width}x{height} at {spp} spp in {:.2} s ({:.2} Mrays/s); wrote {} and {}",
+            "rendered {width}x{height} at {spp} spp in {:.2} s ({:.2} Mrays/s); wrote {} and {}{}",
             r.seconds,
             r.rays as f64 / r.seconds.max(1e-9) / 1e6,
             exr.display(),
-            png.display()
+            png.display(),
+            prt_cli::replaced(existed)
         );
     }
     Ok(())

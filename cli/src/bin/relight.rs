@@ -16,12 +16,17 @@ use std::process::ExitCode;
 
 use anyhow::{bail, Context, Result};
 use clap::Parser;
+use prt_bake::units::human_bytes;
+use prt_formats::family::reflectance_warning;
 use prt_formats::view::CameraSpec;
 use prt_formats::MaterialOverride;
-use prt_runtime::{Image, PixelRelighter, Relighter, Variant, VertexRelighter};
+use prt_runtime::{
+    Image, MaterialInfo, OverrideValue, PixelRelighter, Relighter, Variant, VertexRelighter,
+};
 
 #[derive(Parser, Debug)]
 #[command(
+    name = "relight",
     version,
     about = "Relight a PRT bake file for edited materials, in milliseconds"
 )]
@@ -86,8 +91,20 @@ struct Args {
     turn: Option<f32>,
 }
 
+/// Words users type for this tool's flags (clap suggests only flags spelt alike: it offers
+/// `--camera` for `--material`).
+const SYNONYMS: &[(&str, &str)] = &[
+    ("material", "set"),
+    ("materials", "set"),
+    ("edit", "set"),
+    ("param", "set"),
+    ("environment", "env"),
+    ("envmap", "env"),
+    ("rotate", "env-rotate"),
+];
+
 fn main() -> ExitCode {
-    prt_cli::exit_code(run(Args::parse()))
+    prt_cli::exit_code(run(prt_cli::parse_args(SYNONYMS)))
 }
 
 fn run(args: Args) -> Result<()> {
@@ -110,14 +127,7 @@ fn run(args: Args) -> Result<()> {
     for o in &args.set {
         r.set_params(&o.material, &[o.value])?;
     }
-    let clamped = r
-        .materials()
-        .iter()
-        .flat_map(|m| &m.params)
-        .any(|p| p.clamped());
-    if clamped {
-        eprintln!("warning: a shininess/alpha lies outside its basis' sampled range and was clamped to it");
-    }
+    let clamped = warn_about_edits(&args.set, &r.materials());
     match r {
         Relighter::Pixel(p) => run_pixel(args, p, clamped),
         Relighter::Vertex(v) => run_vertex(args, v, clamped),
@@ -167,7 +177,7 @@ fn run_pixel(args: Args, mut r: PixelRelighter, clamped: bool) -> Result<()> {
     }
     times.sort_by(f64::total_cmp);
     let median = times[times.len() / 2];
-    let out = write_out(&args, &image)?;
+    let (out, existed) = write_out(&args, &image)?;
     if args.json {
         println!(
             "{}",
@@ -184,21 +194,26 @@ fn run_pixel(args: Args, mut r: PixelRelighter, clamped: bool) -> Result<()> {
                 "read_bandwidth_gb_per_s": bytes_read as f64 / median.max(1e-12) / 1e9,
                 "threads": rayon::current_num_threads(),
                 "clamped": clamped,
+                "replaced": existed,
             })
         );
     } else {
         eprintln!(
-            "relit {width}x{height} in {:.2} ms ({bytes_read} read per frame); wrote {}",
+            "relit {width}x{height} in {:.2} ms ({} read per frame); wrote {}{}",
             median * 1e3,
-            out.display()
+            human_bytes(bytes_read),
+            out.display(),
+            prt_cli::replaced(existed)
         );
     }
     Ok(())
 }
 
-/// Writes the image to `--out` (default: next to the bake file); returns where.
-fn write_out(args: &Args, image: &Image) -> Result<PathBuf> {
+/// Writes the image to `--out` (default: next to the bake file); returns where, and whether
+/// it replaced a file.
+fn write_out(args: &Args, image: &Image) -> Result<(PathBuf, bool)> {
     let out = args.out.clone().unwrap_or_else(|| default_out(&args.bake));
+    let existed = out.exists();
     prt_formats::write_image(
         &out,
         image.width as usize,
@@ -207,7 +222,7 @@ fn write_out(args: &Args, image: &Image) -> Result<PathBuf> {
         args.exposure,
     )
     .with_context(|| format!("writing {}", out.display()))?;
-    Ok(out)
+    Ok((out, existed))
 }
 
 /// The default output: next to the bake file, `<name>.relit.png`.
@@ -215,20 +230,78 @@ fn default_out(bake: &Path) -> PathBuf {
     bake.with_extension("").with_extension("relit.png")
 }
 
+/// One line per material: name, family, editable or fixed, and its parameters by name (`ks`
+/// and the lobe parameter only for a family that has them), with the range of the lobe
+/// parameter's basis when it has one (values outside it are clamped to it).
 fn list_materials(r: &Relighter) -> Result<()> {
     for m in r.materials() {
-        let p = r.params(&m.name)?;
+        let params: Vec<String> = m
+            .params
+            .iter()
+            .map(|p| {
+                let value = match p.value {
+                    OverrideValue::Kd(c) | OverrideValue::Ks(c) => format!("{c:?}"),
+                    OverrideValue::Shininess(v) | OverrideValue::Alpha(v) => v.to_string(),
+                };
+                match p.sampled {
+                    Some(range) => format!("{}={value} (basis range {range})", p.param()),
+                    None => format!("{}={value}", p.param()),
+                }
+            })
+            .collect();
         println!(
-            "{:<20} {:<12} {} kd={:?} ks={:?} param={}",
+            "{:<20} {:<12} {} {}",
             m.name,
             m.family,
             if m.editable { "editable" } else { "fixed   " },
-            p.kd,
-            p.ks,
-            p.param
+            params.join(" ")
         );
     }
     Ok(())
+}
+
+/// Warns about the values being rendered: a lobe parameter outside the range its basis was
+/// built over (named, with the value, the range and what is rendered), and an edited material
+/// that reflects more light than it receives. Returns whether any parameter is clamped.
+fn warn_about_edits(set: &[MaterialOverride], materials: &[MaterialInfo]) -> bool {
+    let mut clamped = false;
+    for m in materials {
+        for p in m.params.iter().filter(|p| p.clamped()) {
+            clamped = true;
+            if let (Some(range), OverrideValue::Shininess(v) | OverrideValue::Alpha(v)) =
+                (p.sampled, p.value)
+            {
+                eprintln!(
+                    "warning: {}.{} = {v} lies outside {range}, the range the bake's {} basis \
+                     was built over; relit as {}",
+                    m.name,
+                    p.param(),
+                    p.param(),
+                    v.clamp(range.min, range.max)
+                );
+            }
+        }
+    }
+    for m in materials
+        .iter()
+        .filter(|m| set.iter().any(|o| o.material == m.name))
+    {
+        let colour = |want: fn(&OverrideValue) -> Option<[f32; 3]>| {
+            m.params.iter().find_map(|p| want(&p.value)).unwrap_or([0.0; 3])
+        };
+        let kd = colour(|v| match v {
+            OverrideValue::Kd(c) => Some(*c),
+            _ => None,
+        });
+        let ks = colour(|v| match v {
+            OverrideValue::Ks(c) => Some(*c),
+            _ => None,
+        });
+        if let Some(w) = reflectance_warning(&m.name, m.family, kd, ks) {
+            eprintln!("warning: {w}");
+        }
+    }
+    clamped
 }
 
 /// A per-vertex bake: environment, camera and image size, then the image (the materials are
@@ -306,7 +379,7 @@ fn run_vertex(args: Args, mut r: VertexRelighter, clamped: bool) -> Result<()> {
     rasters.sort_by(f64::total_cmp);
     let view_median = views[views.len() / 2];
     let frame_median = frames.get(frames.len() / 2).copied();
-    let out = write_out(&args, &image)?;
+    let (out, existed) = write_out(&args, &image)?;
     let (light_s, material_s) = (
         first.light_s.unwrap_or(0.0),
         first.material_s.unwrap_or(0.0),
@@ -341,15 +414,18 @@ fn run_vertex(args: Args, mut r: VertexRelighter, clamped: bool) -> Result<()> {
                 "ns_per_pixel_view": view_median * 1e9 / (f64::from(width) * f64::from(height)),
                 "threads": rayon::current_num_threads(),
                 "clamped": clamped,
+                "replaced": existed,
             })
         );
     } else {
         eprintln!(
-            "relit {width}x{height}: light {:.1} ms, materials {:.1} ms, view {:.1} ms; wrote {}",
+            "relit {width}x{height}: light {:.1} ms, materials {:.1} ms, view {:.1} ms; wrote \
+             {}{}",
             light_s * 1e3,
             material_s * 1e3,
             view_median * 1e3,
-            out.display()
+            out.display(),
+            prt_cli::replaced(existed)
         );
     }
     Ok(())

@@ -3,6 +3,7 @@
 
 mod bad_input;
 mod end_to_end;
+mod first_hour;
 mod memory;
 mod resume;
 mod shards;

@@ -35,6 +35,20 @@ pub enum FormatError {
         /// Length of the file or header, in bytes.
         len: u64,
     },
+    /// The file cannot be a bake file, even a truncated one (its header length field does not
+    /// fit it and no JSON header starts after it): a scene, a config or an image opened by
+    /// mistake.
+    #[error(
+        "{}: not a PRT bake file: it looks like {looks_like}; a bake file is what `bake` \
+         writes (a .prtbake file)",
+        .path.display()
+    )]
+    NotABakeFile {
+        /// The file concerned.
+        path: PathBuf,
+        /// What the file looks like, e.g. "a glTF JSON scene (.gltf)".
+        looks_like: String,
+    },
     /// The header length field points past the end of the file.
     #[error(
         "{}: truncated: the header length field says {header_len} bytes, but only {available} \

@@ -37,6 +37,7 @@
 //! * `read.rs`: [`BakeFile`] and [`TensorView`], the memory-mapped reader.
 //! * `parse.rs`: validation of a whole file image (header, tensor table, layout, checksums).
 //! * `digest.rs`: the canonical header digest behind `header_crc32`.
+//! * `sniff.rs`: what a file that is not a bake file looks like (a glTF, a config, an image).
 
 mod atomic;
 mod digest;
@@ -44,6 +45,7 @@ mod dtype;
 mod error;
 mod parse;
 mod read;
+mod sniff;
 mod write;
 
 pub use atomic::write_file_atomic;

@@ -8,6 +8,7 @@ use std::path::Path;
 use serde_json::Value;
 
 use super::digest::header_digest;
+use super::sniff;
 use super::{
     keys, Dtype, FormatError, Result, FORMAT_NAME, MAX_HEADER_LEN, PAD_PREFIX, RESERVED_PREFIX,
     SCHEMA_VERSION, ST_METADATA,
@@ -53,6 +54,14 @@ pub(super) fn parse(path: &Path, bytes: &[u8]) -> Result<Parsed> {
     };
     let header_len = u64::from_le_bytes(*len_bytes);
     let available = file_len - 8;
+    if (header_len > available || header_len > MAX_HEADER_LEN as u64)
+        && sniff::cannot_be_a_bake(bytes)
+    {
+        return Err(FormatError::NotABakeFile {
+            path: pathbuf(),
+            looks_like: sniff::looks_like(bytes),
+        });
+    }
     if header_len > available {
         return Err(FormatError::HeaderTruncated {
             path: pathbuf(),

@@ -280,6 +280,49 @@ fn open_err(dir: &Path, bytes: &[u8]) -> String {
     msg
 }
 
+/// A scene, a config, an image or junk opened as a bake file (`relight scene.gltf`): the error
+/// says the file is not a bake file and what it looks like, rather than "truncated" with a
+/// header length read from the file's text. The project's own files, as a user would name them.
+#[test]
+fn files_that_are_not_bakes_say_what_they_look_like() {
+    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
+    let dir = scratch("foreign");
+    let png = dir.join("image.png");
+    prt_formats::write_png(&png, 2, 1, &[[0.5; 3], [1.0; 3]], 1.0).unwrap();
+    let junk = dir.join("junk.bin");
+    fs::write(&junk, [0xa5u8; 64]).unwrap();
+    for (file, what) in [
+        (
+            scenes.join("cornell/cornell.gltf"),
+            "a glTF JSON scene (.gltf)",
+        ),
+        (
+            scenes.join("furnace/furnace.glb"),
+            "a binary glTF scene (.glb)",
+        ),
+        (scenes.join("cornell/bake.toml"), "a TOML text file"),
+        (scenes.join("envmaps/sky.exr"), "an OpenEXR image"),
+        (scenes.join("README.md"), "a text file"),
+        (png, "a PNG image"),
+        (junk, "unrecognised binary data (first bytes a5 a5"),
+    ] {
+        let e = BakeFile::open(&file).expect_err("not a bake");
+        assert!(
+            matches!(e, FormatError::NotABakeFile { .. }),
+            "{}: {e:?}",
+            file.display()
+        );
+        let msg = e.to_string();
+        let name = file.display().to_string();
+        assert!(
+            msg.contains(&name) && msg.contains("not a PRT bake file") && msg.contains(what),
+            "{name}: {msg}"
+        );
+        assert!(!msg.contains("truncated"), "{msg}");
+    }
+    fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn files_from_other_writers_with_misaligned_tensors_are_read_safely() {
     let dir = scratch("misaligned");

@@ -50,6 +50,7 @@ const KEYS: &[&str] = &[
     "camera",
     "position",
     "target",
+    "fov",
     "yfov",
     "bake",
     "bunny",

@@ -8,29 +8,22 @@ use super::Loader;
 use crate::config::CameraConfig;
 use crate::scene::{Camera, SceneError};
 
-/// Vertical field of view of [`framing_camera`]: 45 degrees.
-pub const FRAMING_YFOV: f32 = std::f32::consts::FRAC_PI_4;
+/// Vertical field of view of [`framing_camera`], degrees.
+pub const FRAMING_FOV: f32 = 45.0;
 
 /// The camera of a config `[camera]` table: a pinhole at `position` looking at `target`, +Y
-/// up (re-orthogonalized). The config parser has checked that `position != target`, that the
-/// view is not vertical and that `yfov` is in (0, pi).
-pub fn from_config(c: &CameraConfig) -> Camera {
-    let forward = (c.target - c.position).normalize_or_zero();
-    let right = forward.cross(Vec3::Y).normalize_or_zero();
-    let up = right.cross(forward);
-    Camera {
-        position: c.position,
-        forward,
-        up,
-        right,
-        yfov: c.yfov,
-    }
+/// up (re-orthogonalized): exactly the camera `--camera` gives for the same eye, target and
+/// field of view (one frame, [`prt_formats::view::CameraSpec::frame`]). The config parser has
+/// refused the tables this fails for (`position == target`, a vertical view, `fov` outside
+/// (0, 180) degrees).
+pub fn from_config(c: &CameraConfig) -> Result<Camera, prt_formats::view::CameraSpecError> {
+    Ok(crate::view::camera_from_frame(&c.spec().frame()?))
 }
 
 /// A camera that sees all of `positions` (the scene's vertices) in an image of aspect ratio
 /// `aspect` (width / height): it looks at the centre of their bounding box from the front (+Z)
 /// and a little above, far enough back that the box's bounding sphere fits the narrower of the
-/// two fields of view (with 5% margin), with [`FRAMING_YFOV`]. No positions frame the unit
+/// two fields of view (with 5% margin), with [`FRAMING_FOV`]. No positions frame the unit
 /// sphere about the origin.
 pub fn framing_camera(positions: &[Vec3], aspect: f32) -> CameraConfig {
     let (lo, hi) = positions.iter().fold(
@@ -51,7 +44,7 @@ pub fn framing_camera(positions: &[Vec3], aspect: f32) -> CameraConfig {
     } else {
         1.0
     };
-    let half_vertical = 0.5 * FRAMING_YFOV;
+    let half_vertical = 0.5 * FRAMING_FOV.to_radians();
     let half_horizontal = (half_vertical.tan() * aspect).atan();
     let half = half_vertical.min(half_horizontal);
     let distance = 1.05 * radius / half.sin();
@@ -59,7 +52,7 @@ pub fn framing_camera(positions: &[Vec3], aspect: f32) -> CameraConfig {
     CameraConfig {
         position: centre + from * distance,
         target: centre,
-        yfov: FRAMING_YFOV,
+        fov: FRAMING_FOV,
     }
 }
 
@@ -107,7 +100,7 @@ mod tests {
     fn framing_camera_sees_every_corner() {
         let pts = [Vec3::new(-1.0, 0.0, -2.0), Vec3::new(3.0, 2.0, 0.5)];
         for aspect in [0.5, 1.0, 2.0] {
-            let cam = from_config(&framing_camera(&pts, aspect));
+            let cam = from_config(&framing_camera(&pts, aspect)).expect("a valid camera");
             assert!(cam.position.is_finite() && cam.forward.is_finite());
             let tan_v = (0.5 * cam.yfov).tan();
             for i in 0..8 {

@@ -20,6 +20,12 @@ const SMOOTH_MEDIAN_DEGREES: f32 = 30.0;
 /// Edges whose faces meet at less than this (degrees) count as coplanar.
 const COPLANAR_DEGREES: f32 = 0.5;
 
+/// The bits of `v` with -0 read as +0: normals that differ only in the sign of a zero are the
+/// same normal (and weld: `vertex/prepare.rs` keys them the same way).
+fn key_bits(v: Vec3) -> [u32; 3] {
+    v.to_array().map(|c| (c + 0.0).to_bits())
+}
+
 /// What faceting one mesh primitive costs.
 #[derive(Clone, Debug, PartialEq)]
 pub(super) struct Facets {
@@ -54,7 +60,7 @@ pub(super) fn analyse(triangles: &[([u32; 3], Vec3)]) -> Facets {
     for &(tri, n) in triangles {
         for k in 0..3 {
             let v = tri[k];
-            pairs.insert((v, n.to_array().map(f32::to_bits)));
+            pairs.insert((v, key_bits(n)));
             used.insert(v);
             let w = tri[(k + 1) % 3];
             let key = (v.min(w), v.max(w));

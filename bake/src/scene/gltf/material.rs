@@ -116,6 +116,7 @@ impl Loader<'_> {
                 material: name.clone(),
                 source: Box::new(e.into()),
             })?;
+            self.check_reflectance(&name, cfg, &brdf);
             out.push(Material {
                 name,
                 brdf,
@@ -133,6 +134,7 @@ impl Loader<'_> {
                 material: name.clone(),
                 source: Box::new(e.into()),
             })?;
+            self.check_reflectance(&name, cfg, &brdf);
             out.push(Material {
                 name,
                 brdf,
@@ -143,6 +145,28 @@ impl Loader<'_> {
             });
         }
         Ok(out)
+    }
+
+    /// Warns when the config's `kd` or `ks` makes material `name` reflect more light than it
+    /// receives ([`prt_formats::family::reflectance_warning`]). Values mapped from the glTF
+    /// alone are not checked: glTF's model weighs its diffuse and specular terms by Fresnel, and
+    /// our sum of the two exceeds 1 for white dielectrics the author made correctly.
+    fn check_reflectance(&mut self, name: &str, cfg: Option<&MaterialConfig>, brdf: &BrdfParams) {
+        if !cfg.is_some_and(|c| c.kd.is_some() || c.ks.is_some()) {
+            return;
+        }
+        let warning = prt_formats::family::reflectance_warning(
+            name,
+            brdf.family,
+            brdf.kd.to_array(),
+            brdf.ks.to_array(),
+        );
+        if let Some(w) = warning {
+            self.warnings.push(format!(
+                "bake config {}: `materials.{name}`: {w}",
+                self.config.config_path.display()
+            ));
+        }
     }
 }
 

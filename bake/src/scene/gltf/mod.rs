@@ -296,7 +296,9 @@ impl Loader<'_> {
         // choosing defaults) a camera framing the geometry, made once the geometry is known.
         self.has_gltf_camera = perspective_camera.is_some();
         let camera = match (&self.config.camera, perspective_camera, orthographic_seen) {
-            (Some(c), _, _) => Some(camera::from_config(c)),
+            (Some(c), _, _) => {
+                Some(camera::from_config(c).map_err(|e| self.invalid(format!("[camera]: {e}")))?)
+            }
             (None, Some(c), _) => Some(c),
             (None, None, _) if self.frame_missing_camera => None,
             (None, None, Some(o)) => {
@@ -306,9 +308,13 @@ impl Loader<'_> {
                 )))
             }
             (None, None, None) => {
-                return Err(
-                    self.invalid("the default scene has no camera; add a perspective camera node")
-                )
+                return Err(self.invalid(format!(
+                    "the default scene has no camera: add a perspective camera node to the \
+                     glTF, or a `[camera]` table (position, target, fov in degrees) to the bake \
+                     config {} (docs/config.md); `bake` on the bare glTF frames the scene by \
+                     itself",
+                    self.config.config_path.display()
+                )))
             }
         };
 
@@ -357,10 +363,14 @@ impl Loader<'_> {
             ));
         }
 
-        let camera = camera.unwrap_or_else(|| {
-            let aspect = self.config.width as f32 / self.config.height as f32;
-            camera::from_config(&camera::framing_camera(&geo.positions, aspect))
-        });
+        let camera = match camera {
+            Some(c) => c,
+            None => {
+                let aspect = self.config.width as f32 / self.config.height as f32;
+                camera::from_config(&camera::framing_camera(&geo.positions, aspect))
+                    .map_err(|e| self.invalid(format!("the camera framing the scene: {e}")))?
+            }
+        };
         let materials = self.materials(geo.uses_default_material)?;
         let environment = self.environment()?;
 
@@ -407,4 +417,31 @@ impl Loader<'_> {
             }
         }
     }
+}
+
+/// The warning for a scene nothing lights ([`Scene::has_light`]), whose every image would be
+/// black, or `None`: it names the scene and says how to light it. Baking such a scene is not an
+/// error (a per-vertex bake can be relit under another environment), but it is rarely meant:
+/// most glTF models bring no lights, and a config without `[environment]` has a black one.
+pub fn unlit_warning(config: &BakeConfig, scene: &Scene) -> Option<String> {
+    if scene.has_light() {
+        return None;
+    }
+    let relight = match config.mode {
+        crate::config::Mode::Vertex => {
+            " (or relight this per-vertex bake under a map with `relight --env FILE`)"
+        }
+        crate::config::Mode::Pixel => "",
+    };
+    Some(format!(
+        "{}: nothing lights the scene (no emissive material, no punctual light, and the \
+         environment is black), so its images will be black; give the bake config {} an \
+         `[environment]`, e.g. `map = {:?}`, the neutral studio light a bare glTF gets \
+         (docs/config.md){relight}",
+        config.scene_path.display(),
+        config.config_path.display(),
+        crate::config::default_environment_map()
+            .display()
+            .to_string(),
+    ))
 }
