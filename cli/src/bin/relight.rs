@@ -242,6 +242,8 @@ fn list_materials(r: &Relighter) -> Result<()> {
                 let value = match p.value {
                     OverrideValue::Kd(c) | OverrideValue::Ks(c) => format!("{c:?}"),
                     OverrideValue::Shininess(v) | OverrideValue::Alpha(v) => v.to_string(),
+                    // A parameter added later: its debug form until it gets its own.
+                    other => format!("{other:?}"),
                 };
                 match p.sampled {
                     Some(range) => format!("{}={value} (basis range {range})", p.param()),

@@ -13,3 +13,4 @@ mod runtime_threads;
 mod vertex_compressed;
 mod vertex_convergence;
 mod vertex_exactness;
+mod vertex_weld;
