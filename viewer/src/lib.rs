@@ -12,6 +12,7 @@
 //! - `encode.rs`: tone mapping for the canvas, PNG and EXR for save.
 //! - `command.rs`: the `relight` command line of what is shown.
 //! - `reference.rs`: the reference tracer's passes for a tab's settings.
+//! - `hub.rs`: what the server's threads share (the tabs, the reference wanted).
 //! - `pipeline.rs`: the render and reference threads.
 //! - `server.rs`: HTTP, WebSocket, the page (`assets/`).
 
@@ -20,6 +21,7 @@
 pub mod command;
 pub mod encode;
 mod error;
+mod hub;
 mod pipeline;
 pub mod reference;
 pub mod render;

@@ -9,26 +9,10 @@ use std::time::{Duration, Instant};
 use serde_json::json;
 
 use crate::encode::{abs_difference, png_rgba, rgba8};
+use crate::hub::{Job, Outgoing, RefJob, Shared};
 use crate::reference::{Accumulator, BakeTracing, ReferenceScene};
 use crate::render::{LinearFrame, Renderer};
-use crate::server::{Job, Outgoing, Shared};
 use crate::settings::{Encoding, Settings};
-
-/// The reference job now wanted.
-#[derive(Default)]
-pub(crate) struct RefState {
-    pub job: Option<RefJob>,
-    /// Bumped whenever the job changes or stops: a running job whose generation is no longer
-    /// this stops after its pass.
-    pub generation: u64,
-}
-
-/// The reference for a tab's settings.
-pub(crate) struct RefJob {
-    pub session: u64,
-    pub generation: u64,
-    pub settings: Settings,
-}
 
 /// A reference stops after this many samples per pixel.
 const MAX_REFERENCE_SPP: u32 = 4096;
