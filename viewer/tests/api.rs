@@ -559,7 +559,7 @@ impl Lcg {
     fn value(&mut self, depth: u32) -> Value {
         match self.next() % 10 {
             0 => json!(null),
-            1 => json!(self.next() % 2 == 0),
+            1 => json!(self.next().is_multiple_of(2)),
             2 => json!(*self.pick(&[0.0, -1.0, 1e39, -1e-45, 0.5, 3.0, 1e6, 4096.0, 16.0, 65.0])),
             3 => json!(self.next() as i64 - (1 << 30)),
             4 => json!(*self.pick(&[
@@ -645,7 +645,16 @@ fn random_requests_never_take_the_server_down() {
                         "target": [0.0, 0.1, 0.0], "fov": rng.pick(&[40.0, 0.0, 90.0])})
                     }
                     7 => {
-                        json!({"type": "size", "width": rng.pick(&[16, 48, 0, 99999]), "height": rng.pick(&[16, 40, 5000])})
+                        let sides = [
+                            json!(16),
+                            json!(48),
+                            json!(0),
+                            json!(99999),
+                            json!(16.5),
+                            json!("32"),
+                            json!(-4),
+                        ];
+                        json!({"type": "size", "width": rng.pick(&sides), "height": rng.pick(&sides)})
                     }
                     _ => {
                         json!({"type": rng.pick(&["reference", "encoding"]), "on": false, "value": "png"})

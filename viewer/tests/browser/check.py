@@ -204,6 +204,7 @@ def latencies(b, count, step):
     """Runs `step(i)` (which sends one request and returns its number) `count` times, waiting
     for each frame; the page's end-to-end latencies and the server's frame times."""
     ms, server = [], []
+    stages = {k: [] for k in ["render_ms", "tonemap_ms", "encode_ms"]}
     for i in range(count):
         seq = step(i)
         frame = wait_frame(b, seq)
@@ -211,9 +212,13 @@ def latencies(b, count, step):
         assert lat["seq"] == seq, (lat, seq)
         ms.append(lat["ms"])
         server.append(frame["render_ms"] + frame["tonemap_ms"] + frame["encode_ms"])
+        for k in stages:
+            stages[k].append(frame[k])
     q = lambda xs, f: sorted(xs)[min(len(xs) - 1, int(f * len(xs)))]  # noqa: E731
-    return {"median_ms": statistics.median(ms), "p90_ms": q(ms, 0.9), "min_ms": min(ms),
-            "server_median_ms": statistics.median(server), "frames": count}
+    out = {"median_ms": statistics.median(ms), "p90_ms": q(ms, 0.9), "min_ms": min(ms),
+           "server_median_ms": statistics.median(server), "frames": count}
+    out.update({f"server_{k.removesuffix('_ms')}_median_ms": statistics.median(v) for k, v in stages.items()})
+    return out
 
 
 def measure(b, args):
@@ -235,6 +240,8 @@ def measure(b, args):
         view = View(args.view, args.vertex, [])
         try:
             first, page_ms = open_page(b, view)
+            w, h = args.measure_size
+            wait_frame(b, b.js("return window.viewer.send(arguments[0]);", {"type": "size", "width": w, "height": h}))
             cam = b.js("return window.viewer.settings.view.camera;")
 
             def orbit_step(i):
@@ -265,6 +272,8 @@ def main():
     p.add_argument("--envs", help="environment folder for the per-vertex bake")
     p.add_argument("--screenshots", help="save screenshots in this folder")
     p.add_argument("--measure", type=int, default=0, help="time this many frames instead of checking")
+    p.add_argument("--measure-size", type=lambda s: tuple(int(x) for x in s.split("x")), default=(512, 512),
+                   help="the per-vertex image size measured, WxH (the per-pixel size is the bake's)")
     args = p.parse_args()
     b = Browser()
     try:
