@@ -1,10 +1,10 @@
 //! A linear frame turned into what the page draws (8-bit RGBA, or a PNG of it) and what
 //! "save" downloads (EXR, PNG), through the one display encoding `relight` writes PNGs with
-//! (`prt_formats::image_io::tonemap_srgb8_with`), so the canvas shows the bytes of the
-//! command's PNG.
+//! (`prt_formats::image_io::tonemap_srgb8_with`, here through its table `Srgb8Table`, the
+//! same bytes without a `powf` per channel), so the canvas shows the bytes of the command's
+//! PNG.
 
-use prt_formats::image_io::tonemap_srgb8_with;
-use prt_formats::ToneCurve;
+use prt_formats::{Srgb8Table, ToneCurve};
 use rayon::prelude::*;
 
 use crate::ViewerError;
@@ -14,14 +14,15 @@ use crate::ViewerError;
 pub fn rgba8(linear: &[f32], exposure: f32, curve: ToneCurve, out: &mut Vec<u8>) {
     let pixels = linear.len() / 3;
     out.resize(4 * pixels, 0);
+    let table = Srgb8Table::shared();
     // Rows of 1024 pixels per task: enough work to share between threads, few tasks.
     out.par_chunks_mut(4 * 1024)
         .zip(linear.par_chunks(3 * 1024))
         .for_each(|(o, l)| {
             for (o, l) in o.chunks_exact_mut(4).zip(l.chunks_exact(3)) {
-                o[0] = tonemap_srgb8_with(l[0], exposure, curve);
-                o[1] = tonemap_srgb8_with(l[1], exposure, curve);
-                o[2] = tonemap_srgb8_with(l[2], exposure, curve);
+                o[0] = table.tonemap(l[0], exposure, curve);
+                o[1] = table.tonemap(l[1], exposure, curve);
+                o[2] = table.tonemap(l[2], exposure, curve);
                 o[3] = 255;
             }
         });

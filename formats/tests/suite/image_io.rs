@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use prt_formats::image_io::{
     read_exr_rgb, srgb_oetf, tonemap_srgb8, tonemap_srgb8_with, write_exr, write_exr_with,
-    write_image, write_image_with, write_png, ExrPrecision, ToneCurve,
+    write_image, write_image_with, write_png, ExrPrecision, Srgb8Table, ToneCurve,
 };
 
 fn scratch(name: &str) -> PathBuf {
@@ -165,6 +165,63 @@ fn tone_curves_have_their_closed_forms_and_show_every_radiance() {
     assert_eq!(back.get_pixel(0, 0).0, want);
     assert_eq!(want[1], (srgb_oetf(2.0 / 3.0) * 255.0 + 0.5) as u8);
     fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The table gives the direct formula's byte for every shown value near a level's edge (every
+/// bit pattern within 1024 of each place the level changes) and on a sweep of every 61st
+/// `f32` in [0, 1]; and through exposure and each curve, for radiances from 1e-6 to 1e6 and
+/// the special values.
+#[test]
+fn the_srgb8_table_gives_the_direct_formulas_bytes() {
+    let table = Srgb8Table::new();
+    // For y in [0, 1], tonemap_srgb8_with(y, 1, clamp) is the sRGB level of y itself.
+    let direct = |bits: u32| tonemap_srgb8_with(f32::from_bits(bits), 1.0, ToneCurve::Clamp);
+    let check = |bits: u32| {
+        let y = f32::from_bits(bits);
+        assert_eq!(table.level(y), direct(bits), "y = {y:e} (bits {bits:#x})");
+    };
+    let one = 1.0f32.to_bits();
+    let (mut last_bits, mut last_level, mut changes) = (0u32, direct(0), 0);
+    let mut bits = 0u32;
+    while bits <= one {
+        check(bits);
+        let level = direct(bits);
+        if level != last_level {
+            changes += 1;
+            let lo = last_bits.saturating_sub(1024);
+            for b in lo..=(bits + 1024).min(one) {
+                check(b);
+            }
+        }
+        (last_bits, last_level) = (bits, level);
+        bits += 61;
+    }
+    check(one);
+    assert_eq!(
+        changes, 255,
+        "every level from 0 to 255 is reached once, in order"
+    );
+    for curve in ToneCurve::ALL {
+        for exposure in [0.0f32, 0.37, 1.0, 2.828427, 1e6] {
+            let specials = [
+                0.0,
+                -0.0,
+                -2.0,
+                f32::NAN,
+                f32::INFINITY,
+                f32::MAX,
+                f32::MIN_POSITIVE,
+            ];
+            let sweep = (0..=120_000).map(|i| 1e-6f32 * 10f32.powf(i as f32 * 1e-4));
+            for v in specials.into_iter().chain(sweep) {
+                assert_eq!(
+                    table.tonemap(v, exposure, curve),
+                    tonemap_srgb8_with(v, exposure, curve),
+                    "{curve}, exposure {exposure}, radiance {v:e}"
+                );
+            }
+        }
+    }
 }
 
 #[test]
