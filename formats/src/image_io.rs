@@ -216,13 +216,167 @@ pub fn srgb_oetf(linear: f32) -> f32 {
     }
 }
 
+/// The tone curve a PNG (and the viewer's canvas) applies after the exposure and before the
+/// sRGB encoding: how scene radiances above 1 are shown.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ToneCurve {
+    /// Clip to [0, 1] (the default): radiances up to 1 are shown as they are, brighter ones
+    /// saturate.
+    #[default]
+    Clamp,
+    /// Reinhard's `x / (1 + x)`: every radiance stays distinguishable, mid-tones darken.
+    Reinhard,
+    /// Narkowicz's fit of the ACES filmic curve, `x (2.51 x + 0.03) / (x (2.43 x + 0.59) +
+    /// 0.14)` clipped to [0, 1]: a toe and a soft shoulder.
+    Aces,
+}
+
+impl ToneCurve {
+    /// Every curve, in the order a picker lists them.
+    pub const ALL: [ToneCurve; 3] = [ToneCurve::Clamp, ToneCurve::Reinhard, ToneCurve::Aces];
+
+    /// The curve's name as `relight --tone` takes it.
+    pub fn name(self) -> &'static str {
+        match self {
+            ToneCurve::Clamp => "clamp",
+            ToneCurve::Reinhard => "reinhard",
+            ToneCurve::Aces => "aces",
+        }
+    }
+
+    /// The curve at a linear value `v >= 0` (after the exposure), in [0, 1].
+    pub fn apply(self, v: f32) -> f32 {
+        match self {
+            ToneCurve::Clamp => v.min(1.0),
+            ToneCurve::Reinhard => v / (1.0 + v),
+            ToneCurve::Aces => {
+                let t = v * (2.51 * v + 0.03) / (v * (2.43 * v + 0.59) + 0.14);
+                t.clamp(0.0, 1.0)
+            }
+        }
+    }
+}
+
+impl std::fmt::Display for ToneCurve {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for ToneCurve {
+    type Err = String;
+
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        ToneCurve::ALL
+            .into_iter()
+            .find(|c| c.name() == s)
+            .ok_or_else(|| {
+                let names: Vec<&str> = ToneCurve::ALL.iter().map(|c| c.name()).collect();
+                format!("unknown tone curve '{s}' (use {})", names.join(", "))
+            })
+    }
+}
+
 /// Display encoding of one linear channel: scale by `exposure`, clamp to [0, 1] (NaN and
 /// negative values give 0), sRGB OETF, round to 8 bits.
 pub fn tonemap_srgb8(linear: f32, exposure: f32) -> u8 {
+    tonemap_srgb8_with(linear, exposure, ToneCurve::Clamp)
+}
+
+/// Display encoding of one linear channel through `curve`: scale by `exposure`, negative and
+/// NaN values to 0, the curve (into [0, 1]), sRGB OETF, round to 8 bits.
+pub fn tonemap_srgb8_with(linear: f32, exposure: f32, curve: ToneCurve) -> u8 {
+    srgb8_of_display(display_value(linear, exposure, curve))
+}
+
+/// The first half of [`tonemap_srgb8_with`]: the value shown, in [0, 1].
+fn display_value(linear: f32, exposure: f32, curve: ToneCurve) -> f32 {
     let v = linear * exposure;
-    // `!(v > 0.0)` also catches NaN.
-    let v = if v > 0.0 { v.min(1.0) } else { 0.0 };
-    (srgb_oetf(v) * 255.0 + 0.5) as u8
+    // `!(v > 0.0)` also catches NaN. Capped so that no curve's arithmetic overflows (ACES
+    // squares it): every curve is 1 long before 1e18, so an infinite radiance shows white.
+    if v > 0.0 {
+        curve.apply(v.min(1e18))
+    } else {
+        0.0
+    }
+}
+
+/// The second half of [`tonemap_srgb8_with`]: a shown value in [0, 1] to its 8-bit sRGB level.
+fn srgb8_of_display(y: f32) -> u8 {
+    (srgb_oetf(y) * 255.0 + 0.5) as u8
+}
+
+/// [`tonemap_srgb8_with`] through a table instead of a `powf` per channel, giving the same
+/// bytes: for tone-mapping whole frames many times a second (the viewer's canvas). The level
+/// of a shown value `y` in [0, 1] is the number of level edges at or below it; a bucket per
+/// 2^14 `f32` bit patterns holds the level at its start, so a lookup is one load and, near an
+/// edge, a comparison or two. Exact because the level never decreases as `y` grows (checked
+/// at every edge and on a fine sweep of [0, 1] in the tests); `relight` keeps the direct
+/// formula, so the browser check compares two independent computations.
+#[derive(Debug, Clone)]
+pub struct Srgb8Table {
+    /// `edges[k]`: the smallest `f32` in [0, 1] whose level is `k` or more (`edges[0] = 0`).
+    edges: [f32; 256],
+    /// The level at bit pattern `i << BUCKET_SHIFT`, for every `i` up to that of 1.0.
+    buckets: Vec<u8>,
+}
+
+const BUCKET_SHIFT: u32 = 14;
+
+impl Srgb8Table {
+    /// Builds the table (255 binary searches and 65 025 evaluations: about a millisecond).
+    pub fn new() -> Srgb8Table {
+        let one = 1.0f32.to_bits();
+        let level = |bits: u32| srgb8_of_display(f32::from_bits(bits));
+        let mut edges = [0.0f32; 256];
+        for (k, edge) in edges.iter_mut().enumerate().skip(1) {
+            // The smallest bit pattern in [0, 1] whose level reaches k (1.0's is 255).
+            let (mut lo, mut hi) = (0u32, one);
+            while lo < hi {
+                let mid = lo + (hi - lo) / 2;
+                if usize::from(level(mid)) >= k {
+                    hi = mid;
+                } else {
+                    lo = mid + 1;
+                }
+            }
+            *edge = f32::from_bits(lo);
+        }
+        let buckets = (0..=one >> BUCKET_SHIFT)
+            .map(|i| level(i << BUCKET_SHIFT))
+            .collect();
+        Srgb8Table { edges, buckets }
+    }
+
+    /// One table for the process, built on first use.
+    pub fn shared() -> &'static Srgb8Table {
+        static TABLE: std::sync::OnceLock<Srgb8Table> = std::sync::OnceLock::new();
+        TABLE.get_or_init(Srgb8Table::new)
+    }
+
+    /// `tonemap_srgb8_with(linear, exposure, curve)`, through the table.
+    pub fn tonemap(&self, linear: f32, exposure: f32, curve: ToneCurve) -> u8 {
+        self.level(display_value(linear, exposure, curve))
+    }
+
+    /// The 8-bit sRGB level of a shown value `y` in [0, 1] (0 below, 255 above).
+    pub fn level(&self, y: f32) -> u8 {
+        if y.is_nan() || y <= 0.0 {
+            return 0;
+        }
+        let i = ((y.to_bits() >> BUCKET_SHIFT) as usize).min(self.buckets.len() - 1);
+        let mut k = self.buckets[i];
+        while k < 255 && y >= self.edges[usize::from(k) + 1] {
+            k += 1;
+        }
+        k
+    }
+}
+
+impl Default for Srgb8Table {
+    fn default() -> Self {
+        Srgb8Table::new()
+    }
 }
 
 /// Writes a tone-mapped 8-bit sRGB PNG: each channel is scaled by `exposure` (a linear
@@ -233,6 +387,18 @@ pub fn write_png(
     height: usize,
     rgb: &[[f32; 3]],
     exposure: f32,
+) -> Result<()> {
+    write_png_with(path, width, height, rgb, exposure, ToneCurve::Clamp)
+}
+
+/// [`write_png`] through a tone curve ([`tonemap_srgb8_with`]).
+pub fn write_png_with(
+    path: impl AsRef<Path>,
+    width: usize,
+    height: usize,
+    rgb: &[[f32; 3]],
+    exposure: f32,
+    curve: ToneCurve,
 ) -> Result<()> {
     use image::ImageEncoder;
 
@@ -253,7 +419,7 @@ pub fn write_png(
     };
     let bytes: Vec<u8> = rgb
         .iter()
-        .flat_map(|p| p.map(|c| tonemap_srgb8(c, exposure)))
+        .flat_map(|p| p.map(|c| tonemap_srgb8_with(c, exposure, curve)))
         .collect();
     write_file_atomic(path, |w| {
         image::codecs::png::PngEncoder::new(w)
@@ -273,13 +439,25 @@ pub fn write_image(
     rgb: &[[f32; 3]],
     exposure: f32,
 ) -> Result<()> {
+    write_image_with(path, width, height, rgb, exposure, ToneCurve::Clamp)
+}
+
+/// [`write_image`] with a PNG's tone curve (an EXR stays linear).
+pub fn write_image_with(
+    path: impl AsRef<Path>,
+    width: usize,
+    height: usize,
+    rgb: &[[f32; 3]],
+    exposure: f32,
+    curve: ToneCurve,
+) -> Result<()> {
     let path = path.as_ref();
     let ext = path
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase());
     match ext.as_deref() {
         Some("exr") => write_exr(path, width, height, rgb),
-        Some("png") => write_png(path, width, height, rgb, exposure),
+        Some("png") => write_png_with(path, width, height, rgb, exposure, curve),
         _ => Err(ImageIoError::UnsupportedExtension {
             path: path.to_path_buf(),
             ext: path.extension().map(|e| e.to_string_lossy().into_owned()),

@@ -40,7 +40,10 @@ pub use container::{
 };
 pub use family::Family;
 #[cfg(feature = "image-io")]
-pub use image_io::{read_exr_rgb, write_exr, write_image, write_png, ImageIoError};
+pub use image_io::{
+    read_exr_rgb, write_exr, write_image, write_image_with, write_png, write_png_with,
+    ImageIoError, Srgb8Table, ToneCurve,
+};
 pub use overrides::{
     check_material, parse_override, MaterialOverride, OverrideError, OverrideValue, Param,
 };

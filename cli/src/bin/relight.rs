@@ -19,7 +19,7 @@ use clap::Parser;
 use prt_bake::units::human_bytes;
 use prt_formats::family::reflectance_warning;
 use prt_formats::view::CameraSpec;
-use prt_formats::MaterialOverride;
+use prt_formats::{MaterialOverride, ToneCurve};
 use prt_runtime::{
     Image, MaterialInfo, OverrideValue, PixelRelighter, Relighter, Variant, VertexRelighter,
 };
@@ -47,6 +47,9 @@ struct Args {
     /// Exposure multiplier for PNG output.
     #[arg(long, default_value_t = 1.0)]
     exposure: f32,
+    /// Tone curve for PNG output, after the exposure: clamp (clip at 1), reinhard or aces.
+    #[arg(long, default_value_t = ToneCurve::Clamp)]
+    tone: ToneCurve,
     /// Relight this many times and report the median time per frame.
     #[arg(long, default_value_t = 1)]
     repeat: u32,
@@ -214,12 +217,13 @@ fn run_pixel(args: Args, mut r: PixelRelighter, clamped: bool) -> Result<()> {
 fn write_out(args: &Args, image: &Image) -> Result<(PathBuf, bool)> {
     let out = args.out.clone().unwrap_or_else(|| default_out(&args.bake));
     let existed = out.exists();
-    prt_formats::write_image(
+    prt_formats::write_image_with(
         &out,
         image.width as usize,
         image.height as usize,
         &image.pixels,
         args.exposure,
+        args.tone,
     )
     .with_context(|| format!("writing {}", out.display()))?;
     Ok((out, existed))

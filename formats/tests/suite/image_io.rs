@@ -4,8 +4,8 @@ use std::fs;
 use std::path::PathBuf;
 
 use prt_formats::image_io::{
-    read_exr_rgb, srgb_oetf, tonemap_srgb8, write_exr, write_exr_with, write_image, write_png,
-    ExrPrecision,
+    read_exr_rgb, srgb_oetf, tonemap_srgb8, tonemap_srgb8_with, write_exr, write_exr_with,
+    write_image, write_image_with, write_png, ExrPrecision, Srgb8Table, ToneCurve,
 };
 
 fn scratch(name: &str) -> PathBuf {
@@ -110,6 +110,118 @@ fn png_is_tone_mapped_srgb() {
     assert!(write_png(&path, 2, 2, &img, -1.0).is_err());
     no_temp_files(&dir);
     fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn tone_curves_have_their_closed_forms_and_show_every_radiance() {
+    // The closed forms at points where each is easy to state.
+    assert_eq!(ToneCurve::Reinhard.apply(1.0), 0.5);
+    assert_eq!(ToneCurve::Reinhard.apply(3.0), 0.75);
+    let aces = |x: f64| x * (2.51 * x + 0.03) / (x * (2.43 * x + 0.59) + 0.14);
+    for x in [0.01f32, 0.18, 0.5, 0.8] {
+        assert!((f64::from(ToneCurve::Aces.apply(x)) - aces(f64::from(x))).abs() < 1e-6);
+    }
+    assert_eq!(ToneCurve::Aces.apply(100.0), 1.0);
+    for curve in ToneCurve::ALL {
+        // Names round-trip (relight --tone, the viewer's picker).
+        assert_eq!(curve.name().parse::<ToneCurve>(), Ok(curve));
+        // Monotone, 0 at 0, and white for huge and infinite radiance; black for NaN and
+        // negatives.
+        let mut last = 0u8;
+        for i in 0..=4000 {
+            let v = i as f32 * 0.005;
+            let c = tonemap_srgb8_with(v, 1.0, curve);
+            assert!(c >= last, "{curve}: not monotone at {v}");
+            last = c;
+        }
+        assert_eq!(tonemap_srgb8_with(0.0, 1.0, curve), 0);
+        assert_eq!(
+            tonemap_srgb8_with(f32::INFINITY, 1.0, curve),
+            255,
+            "{curve}"
+        );
+        assert_eq!(tonemap_srgb8_with(f32::MAX, 1.0, curve), 255, "{curve}");
+        assert_eq!(tonemap_srgb8_with(f32::NAN, 1.0, curve), 0);
+        assert_eq!(tonemap_srgb8_with(-2.0, 1.0, curve), 0);
+    }
+    // Clamp is the default and what tonemap_srgb8 always was.
+    assert_eq!(ToneCurve::default(), ToneCurve::Clamp);
+    for v in [0.001f32, 0.25, 0.7, 1.0, 3.0] {
+        assert_eq!(
+            tonemap_srgb8_with(v, 1.5, ToneCurve::Clamp),
+            tonemap_srgb8(v, 1.5)
+        );
+    }
+    assert!("filmic"
+        .parse::<ToneCurve>()
+        .unwrap_err()
+        .contains("clamp, reinhard, aces"));
+    // A PNG through a curve holds the curve's bytes.
+    let dir = scratch("tone");
+    let img = vec![[0.5, 2.0, 8.0]];
+    write_image_with(dir.join("t.png"), 1, 1, &img, 1.0, ToneCurve::Reinhard).unwrap();
+    let back = image::open(dir.join("t.png")).unwrap().to_rgb8();
+    let want = img[0].map(|c| tonemap_srgb8_with(c, 1.0, ToneCurve::Reinhard));
+    assert_eq!(back.get_pixel(0, 0).0, want);
+    assert_eq!(want[1], (srgb_oetf(2.0 / 3.0) * 255.0 + 0.5) as u8);
+    fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The table gives the direct formula's byte for every shown value near a level's edge (every
+/// bit pattern within 1024 of each place the level changes) and on a sweep of every 61st
+/// `f32` in [0, 1]; and through exposure and each curve, for radiances from 1e-6 to 1e6 and
+/// the special values.
+#[test]
+fn the_srgb8_table_gives_the_direct_formulas_bytes() {
+    let table = Srgb8Table::new();
+    // For y in [0, 1], tonemap_srgb8_with(y, 1, clamp) is the sRGB level of y itself.
+    let direct = |bits: u32| tonemap_srgb8_with(f32::from_bits(bits), 1.0, ToneCurve::Clamp);
+    let check = |bits: u32| {
+        let y = f32::from_bits(bits);
+        assert_eq!(table.level(y), direct(bits), "y = {y:e} (bits {bits:#x})");
+    };
+    let one = 1.0f32.to_bits();
+    let (mut last_bits, mut last_level, mut changes) = (0u32, direct(0), 0);
+    let mut bits = 0u32;
+    while bits <= one {
+        check(bits);
+        let level = direct(bits);
+        if level != last_level {
+            changes += 1;
+            let lo = last_bits.saturating_sub(1024);
+            for b in lo..=(bits + 1024).min(one) {
+                check(b);
+            }
+        }
+        (last_bits, last_level) = (bits, level);
+        bits += 61;
+    }
+    check(one);
+    assert_eq!(
+        changes, 255,
+        "every level from 0 to 255 is reached once, in order"
+    );
+    for curve in ToneCurve::ALL {
+        for exposure in [0.0f32, 0.37, 1.0, 2.828427, 1e6] {
+            let specials = [
+                0.0,
+                -0.0,
+                -2.0,
+                f32::NAN,
+                f32::INFINITY,
+                f32::MAX,
+                f32::MIN_POSITIVE,
+            ];
+            let sweep = (0..=120_000).map(|i| 1e-6f32 * 10f32.powf(i as f32 * 1e-4));
+            for v in specials.into_iter().chain(sweep) {
+                assert_eq!(
+                    table.tonemap(v, exposure, curve),
+                    tonemap_srgb8_with(v, exposure, curve),
+                    "{curve}, exposure {exposure}, radiance {v:e}"
+                );
+            }
+        }
+    }
 }
 
 #[test]
