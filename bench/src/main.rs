@@ -93,6 +93,10 @@ enum Command {
     /// errors against the dense relight and the reference, the three runtime paths timed
     /// (docs/report-vertex.md).
     Vertex(prt_bench::vertex::VertexArgs),
+    /// The GPU backend's frames against its goals, beside lavapipe and the CPU runtime
+    /// (build with `--features gpu`; bench/gpu.sh runs it on baked scenes).
+    #[cfg(feature = "gpu")]
+    Gpu(prt_bench::gpu::GpuArgs),
 }
 
 fn main() -> ExitCode {
@@ -118,6 +122,8 @@ fn run(cli: Cli) -> Result<()> {
         Command::Basis(args) => prt_bench::basis::run(&args),
         Command::CompareRays(args) => compare_rays::run(&args),
         Command::Vertex(args) => prt_bench::vertex::run(&args),
+        #[cfg(feature = "gpu")]
+        Command::Gpu(args) => prt_bench::gpu::run(&args),
         Command::Rays { rays, config, json } => {
             let scene = match config {
                 Some(c) => prt_bake::run::load(&c, &prt_bake::progress::Silent)?.1,
