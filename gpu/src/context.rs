@@ -112,9 +112,17 @@ impl GpuContext {
         &self.queue
     }
 
-    /// Bytes one storage binding may hold.
+    /// Bytes of bake data (stored tensors, vertex records and tables) one storage binding
+    /// may hold: the device's limit, or [`GpuOptions::max_binding_bytes`] below it.
     pub(crate) fn max_binding_bytes(&self) -> u64 {
         self.max_binding_bytes
+    }
+
+    /// Bytes one storage binding may hold on the device (for the frame's own buffers).
+    pub(crate) fn device_binding_bytes(&self) -> u64 {
+        self.limits
+            .max_storage_buffer_binding_size
+            .min(self.limits.max_buffer_size)
     }
 
     /// Runs `f` (resource creation or uploads) and reports a validation or out-of-memory error

@@ -68,7 +68,15 @@ pub(crate) struct PixelGpu {
 }
 
 impl PixelGpu {
+    /// Uploads the bake's emission, pixel lists and the tensors of its current variant (the
+    /// other variant when it is first rendered).
     pub(crate) fn new(ctx: &GpuContext, r: &PixelRelighter) -> Result<PixelGpu, GpuError> {
+        let mut gpu = PixelGpu::buffers(ctx, r)?;
+        gpu.ensure(r, r.variant())?;
+        Ok(gpu)
+    }
+
+    fn buffers(ctx: &GpuContext, r: &PixelRelighter) -> Result<PixelGpu, GpuError> {
         ctx.checked("uploading a per-pixel bake", || {
             let device = &ctx.device;
             let meta = r.meta();
@@ -124,7 +132,7 @@ impl PixelGpu {
                     cache: None,
                 })
             };
-            let max = ctx.max_binding_bytes();
+            let max = ctx.device_binding_bytes();
             let image_bytes = 12 * npix;
             if image_bytes > max {
                 return Err(GpuError::Limit {
@@ -212,7 +220,7 @@ impl PixelGpu {
         }
         let plan = self.plan(r, variant)?;
         let rows: usize = plan.iter().map(|(_, rows)| rows.len()).sum();
-        let max = self.ctx.max_binding_bytes();
+        let max = self.ctx.device_binding_bytes();
         let columns_bytes = (16 * rows as u64).max(16);
         if columns_bytes > max {
             return Err(GpuError::Limit {

@@ -26,8 +26,12 @@ use prt_tests::{
     bake_to_file, bases_for, relative_l2, small_basis, small_options, temp_path, test_scene,
 };
 
-/// The largest relative L2 distance of a GPU frame from the CPU frame.
-const TOLERANCE: f64 = 1e-3;
+/// The largest relative L2 distance of a GPU frame from the CPU frame: a tenth of the
+/// issue's 1e-3, three times the worst measured on lavapipe (3.3e-5: the GPU's f32 lookups
+/// where the CPU uses f64, fused multiply-adds, silhouette pixels), so that a shader term with
+/// a small share of the image (I1's SH bands: a wrong band moves it by 2e-4 to 7e-4) cannot be
+/// wrong unnoticed.
+const TOLERANCE: f64 = 1e-4;
 
 /// The device, or `None` (skipped, loudly) when `PRT_SKIP_GPU=1` and there is none.
 fn context(options: &GpuOptions) -> Option<GpuContext> {
@@ -126,8 +130,8 @@ fn per_pixel_frames_match_the_cpu() {
 
 #[test]
 fn tensors_split_across_bindings_relight_the_same() {
-    // 1 KiB per binding: every group's rows are cut into many chunks (40 x 30 pixels, a row
-    // of a group is at most 4.8 KB in f32, so single rows still fit in f16 only).
+    // 8 KiB per binding: a group's row is at most 4.8 KB (40 x 30 pixels in f32), so the
+    // larger groups' rows go one or two per binding, dozens of chunks per group.
     let Some(ctx) = context(&GpuOptions {
         max_binding_bytes: Some(8 << 10),
         ..Default::default()
@@ -348,9 +352,10 @@ fn vertex_settings(ctx: &GpuContext, path: &Path, label: &str) {
     }
     compare(&mut g, &format!("{label}: map"));
     for e in [
-        "floor.kd=0.3,0.5,0.7",
-        "ball.kd=0.2,0.1,0.05",
-        "ball.ks=0.9,0.6,0.3",
+        // A bright floor and a near-mirror ball: the ball reflects the floor's light (I1).
+        "floor.kd=0.9,0.8,0.7",
+        "ball.kd=0.02,0.01,0.005",
+        "ball.ks=1,0.8,0.6",
         "ball.alpha=0.12",
     ] {
         set(g.relighter_mut(), e);
