@@ -23,8 +23,10 @@ if [[ "${1:-}" == --prepare ]]; then
     mkdir -p "$CARRY/lib"
     strip -o "$CARRY/bake" target/release/bake
     strip -o "$CARRY/bench" target/release/bench
-    # The Vulkan loader, for a machine whose driver came without it.
-    loader=$(ldconfig -p | awk '/libvulkan\.so\.1 /{print $NF; exit}')
+    # The Vulkan loader, for a machine whose driver came without it. (awk reads all of
+    # ldconfig's output: an early exit would kill ldconfig with SIGPIPE, which pipefail and
+    # set -e turn into a silent exit of this script.)
+    loader=$(ldconfig -p | awk '/libvulkan\.so\.1 / && !found {print $NF; found = 1}')
     if [[ -n "$loader" ]]; then cp -L "$loader" "$CARRY/lib/libvulkan.so.1"; fi
     du -sh "$CARRY"
     exit 0
@@ -41,12 +43,12 @@ mkdir -p "$OUT"
 
 # Vulkan: the machine's loader, else the carried one; the machine's ICD files, else an NVIDIA
 # one written here when the NVIDIA driver's library is present.
-if ! ldconfig -p | grep -q 'libvulkan\.so\.1 ' && [[ -f $BIN/lib/libvulkan.so.1 ]]; then
+if ! ldconfig -p | grep 'libvulkan\.so\.1 ' >/dev/null && [[ -f $BIN/lib/libvulkan.so.1 ]]; then
     export LD_LIBRARY_PATH="$PWD/$BIN/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
     echo "using the carried Vulkan loader"
 fi
 icds=$(ls /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json 2>/dev/null || true)
-if ! grep -qi nvidia <<<"$icds" && ldconfig -p | grep -q libGLX_nvidia.so.0; then
+if ! grep -qi nvidia <<<"$icds" && ldconfig -p | grep libGLX_nvidia.so.0 >/dev/null; then
     cat >"$OUT/nvidia_icd.json" <<'EOF'
 {"file_format_version": "1.0.0", "ICD": {"library_path": "libGLX_nvidia.so.0", "api_version": "1.3"}}
 EOF

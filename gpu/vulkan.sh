@@ -12,9 +12,16 @@ if [[ "${PRT_SKIP_GPU:-}" == 1 ]]; then
     echo "gpu/vulkan.sh: skipped (PRT_SKIP_GPU=1): the GPU frame tests will not run" >&2
     exit 0
 fi
+# grep without -q reads all of ldconfig's output: -q would stop early, ldconfig would die of
+# SIGPIPE and pipefail would report no driver where there is one.
 has_driver() {
-    ldconfig -p | grep -q 'libvulkan\.so\.1 ' &&
-        ls /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json >/dev/null 2>&1
+    ldconfig -p | grep 'libvulkan\.so\.1 ' >/dev/null || return 1
+    # Either folder may be missing (ls of both would then fail though the other holds one).
+    local icd
+    for icd in /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json; do
+        [[ -f $icd ]] && return 0
+    done
+    return 1
 }
 if has_driver; then
     exit 0
