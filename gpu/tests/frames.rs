@@ -403,3 +403,88 @@ fn per_vertex_frames_match_the_cpu() {
         "vertex compressed",
     );
 }
+
+/// `render_to_view` draws into the caller's texture what `render_into` reads back: the same
+/// bits in every pixel's RGB, alpha 1 where the mesh or the environment was drawn.
+#[test]
+fn a_frame_rendered_into_a_callers_texture_is_the_read_back_frame() {
+    let Some(ctx) = context(&GpuOptions::default()) else {
+        return;
+    };
+    let path = vertex_bake("gpu-view-texture.prtbake", None);
+    let mut g = GpuRelighter::new(&ctx, prt_runtime::open(&path).expect("open")).expect("upload");
+    let (width, height) = (40u32, 24u32);
+    if let Relighter::Vertex(v) = g.relighter_mut() {
+        let camera = "eye=0.3,1.1,2.4 target=0,0.35,0 fov=45"
+            .parse::<prt_formats::view::CameraSpec>()
+            .expect("camera");
+        v.set_camera(camera.frame().expect("frame"))
+            .expect("camera");
+        v.set_size(width, height).expect("size");
+    }
+    let read_back = g.render().expect("read-back frame");
+
+    let device = ctx.device();
+    let extent = wgpu::Extent3d {
+        width,
+        height,
+        depth_or_array_layers: 1,
+    };
+    let texture = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("the caller's texture"),
+        size: extent,
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: wgpu::TextureFormat::Rgba32Float,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    });
+    g.render_to_view(&texture.create_view(&Default::default()))
+        .expect("render into the caller's texture");
+
+    // 16 bytes a texel; rows padded to wgpu's copy alignment.
+    let pitch = (16 * width).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
+        * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("test read-back"),
+        size: u64::from(pitch * height),
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = device.create_command_encoder(&Default::default());
+    encoder.copy_texture_to_buffer(
+        texture.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &buffer,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(pitch),
+                rows_per_image: Some(height),
+            },
+        },
+        extent,
+    );
+    ctx.queue().submit([encoder.finish()]);
+    buffer.slice(..).map_async(wgpu::MapMode::Read, |r| r.expect("map"));
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .expect("device done");
+    let bytes = buffer.slice(..).get_mapped_range().expect("mapped").to_vec();
+    let mut lit = 0usize;
+    for y in 0..height as usize {
+        for x in 0..width as usize {
+            let at = y * pitch as usize + 16 * x;
+            let texel: [f32; 4] = bytemuck::pod_read_unaligned(&bytes[at..at + 16]);
+            let expected = read_back.pixels[y * width as usize + x];
+            assert_eq!(
+                [texel[0], texel[1], texel[2]],
+                expected,
+                "pixel ({x}, {y}): the caller's texture against the read-back frame"
+            );
+            assert_eq!(texel[3], 1.0, "pixel ({x}, {y}): alpha");
+            lit += usize::from(expected.iter().any(|&v| v > 0.0));
+        }
+    }
+    assert!(lit > 0, "a black frame compares nothing");
+}
