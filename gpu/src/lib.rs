@@ -62,9 +62,11 @@ pub struct GpuStats {
     pub bytes_read: Option<u64>,
 }
 
+/// Each kind's device state, boxed: both are large (about 1-2 KB of handles) and a relighter
+/// holds one.
 enum Backend {
-    Pixel(pixel::PixelGpu),
-    Vertex(vertex::VertexGpu),
+    Pixel(Box<pixel::PixelGpu>),
+    Vertex(Box<vertex::VertexGpu>),
 }
 
 /// A bake of either kind relit on a GPU: see the crate documentation.
@@ -80,10 +82,10 @@ impl GpuRelighter {
     /// then (open it again to render on the CPU).
     pub fn new(ctx: &GpuContext, mut relighter: Relighter) -> Result<GpuRelighter, GpuError> {
         let gpu = match &mut relighter {
-            Relighter::Pixel(r) => Backend::Pixel(pixel::PixelGpu::new(ctx, r)?),
+            Relighter::Pixel(r) => Backend::Pixel(Box::new(pixel::PixelGpu::new(ctx, r)?)),
             Relighter::Vertex(r) => {
                 r.prepare_stages()?;
-                Backend::Vertex(vertex::VertexGpu::new(ctx, r)?)
+                Backend::Vertex(Box::new(vertex::VertexGpu::new(ctx, r)?))
             }
         };
         Ok(GpuRelighter {

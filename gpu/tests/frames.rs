@@ -466,11 +466,17 @@ fn a_frame_rendered_into_a_callers_texture_is_the_read_back_frame() {
         extent,
     );
     ctx.queue().submit([encoder.finish()]);
-    buffer.slice(..).map_async(wgpu::MapMode::Read, |r| r.expect("map"));
+    buffer
+        .slice(..)
+        .map_async(wgpu::MapMode::Read, |r| r.expect("map"));
     device
         .poll(wgpu::PollType::wait_indefinitely())
         .expect("device done");
-    let bytes = buffer.slice(..).get_mapped_range().expect("mapped").to_vec();
+    let bytes = buffer
+        .slice(..)
+        .get_mapped_range()
+        .expect("mapped")
+        .to_vec();
     let mut lit = 0usize;
     for y in 0..height as usize {
         for x in 0..width as usize {
