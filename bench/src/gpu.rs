@@ -241,7 +241,7 @@ fn pixel(path: &PathBuf, contexts: &[(&str, &GpuContext, usize)], args: &GpuArgs
     let (w, h) = probe.size();
     println!("\nper-pixel {} ({w}x{h}):", path.display());
     for (label, ctx, frames) in contexts {
-        // The bandwidth of copies as large as the bake's tensors (at least 64 MiB).
+        // The bandwidth of 64 MiB buffer-to-buffer copies (past any cache of a GPU or CPU).
         let (bandwidth, overhead) = device_figures(ctx, 64 << 20)?;
         println!(
             "  {label}: {}: copy bandwidth {:.1} GB/s (read + write), empty submission {:.3} ms",
