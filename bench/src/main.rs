@@ -125,6 +125,10 @@ enum Command {
         #[arg(long)]
         environment: Option<PathBuf>,
     },
+    /// The GPU backend's frames against its goals, beside lavapipe and the CPU runtime
+    /// (build with `--features gpu`; bench/gpu.sh runs it on baked scenes).
+    #[cfg(feature = "gpu")]
+    Gpu(prt_bench::gpu::GpuArgs),
 }
 
 fn main() -> ExitCode {
@@ -214,6 +218,8 @@ fn run(cli: Cli) -> Result<()> {
             }
             Ok(())
         }
+        #[cfg(feature = "gpu")]
+        Command::Gpu(args) => prt_bench::gpu::run(&args),
         Command::Rays { rays, config, json } => {
             let scene = match config {
                 Some(c) => prt_bake::run::load(&c, &prt_bake::progress::Silent)?.1,

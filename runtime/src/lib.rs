@@ -49,6 +49,17 @@
 mod error;
 #[cfg(feature = "hooks")]
 pub mod hooks;
+/// With the feature `gpu-surface` only: what a GPU backend (`prt-gpu`) reads of a per-vertex
+/// relighter besides its public face (docs/gpu.md): the light and material stages' results and
+/// the view stage's per-frame inputs, as read-only views. A per-pixel relighter gives its
+/// file and slot coefficients (`PixelRelighter::file`, `PixelRelighter::coefficients`).
+#[cfg(feature = "gpu-surface")]
+pub mod gpu_surface {
+    pub use crate::vertex::surface::{
+        SplitWidth, Stages, SurfaceLobe, SurfaceMaterial, VertexSurface, RECORD_E, RECORD_I1,
+        RECORD_I2, RECORD_U,
+    };
+}
 mod image;
 mod materials;
 mod pixel;

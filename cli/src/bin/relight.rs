@@ -92,6 +92,13 @@ struct Args {
     /// view stages (with --orbit as well: the camera moves too).
     #[arg(long, value_name = "DEGREES", allow_negative_numbers = true)]
     turn: Option<f32>,
+    /// Render on a GPU (wgpu: Vulkan, Metal or DX12; docs/gpu.md) instead of the CPU.
+    /// Needs a build with `--features gpu`.
+    #[arg(long)]
+    gpu: bool,
+    /// With --gpu: use the software fallback adapter (lavapipe) even when a GPU is present.
+    #[arg(long, requires = "gpu")]
+    gpu_fallback: bool,
 }
 
 /// Words users type for this tool's flags (clap suggests only flags spelt alike: it offers
@@ -131,10 +138,85 @@ fn run(args: Args) -> Result<()> {
         r.set_params(&o.material, &[o.value])?;
     }
     let clamped = warn_about_edits(&args.set, &r.materials());
+    if args.gpu {
+        return run_gpu(args, r, clamped);
+    }
     match r {
         Relighter::Pixel(p) => run_pixel(args, p, clamped),
         Relighter::Vertex(v) => run_vertex(args, v, clamped),
     }
+}
+
+/// `--gpu` in a build without the `gpu` feature.
+#[cfg(not(feature = "gpu"))]
+fn run_gpu(_: Args, _: Relighter, _: bool) -> Result<()> {
+    bail!(
+        "--gpu needs a relight built with the GPU backend: cargo build --release -p prt-cli \
+         --features gpu --bin relight (docs/gpu.md)"
+    )
+}
+
+/// `--gpu`: the same settings as on the CPU, rendered on the device `--repeat` times (with
+/// `--orbit` and `--turn` as on the CPU); the median frame time.
+#[cfg(feature = "gpu")]
+fn run_gpu(args: Args, mut r: Relighter, clamped: bool) -> Result<()> {
+    let ctx = prt_gpu::GpuContext::new(&prt_gpu::GpuOptions {
+        fallback: args.gpu_fallback,
+        ..Default::default()
+    })?;
+    let mut camera = None;
+    match &mut r {
+        Relighter::Pixel(p) if args.compressed => p.set_variant(Variant::Compressed)?,
+        Relighter::Pixel(_) => {}
+        Relighter::Vertex(v) => camera = Some(set_up_vertex(&args, v)?),
+    }
+    let rotation0 = match &r {
+        Relighter::Vertex(v) => v.environment_rotation(),
+        Relighter::Pixel(_) => 0.0,
+    };
+    let mut g = prt_gpu::GpuRelighter::new(&ctx, r)?;
+    let (width, height) = g.relighter().size();
+    let mut image = Image::new(width, height);
+    let mut times = Vec::new();
+    for k in 0..args.repeat {
+        if let (Relighter::Vertex(v), Some(camera)) = (g.relighter_mut(), camera) {
+            if let Some(deg) = args.orbit {
+                v.set_camera(camera.orbited(deg * k as f32))?;
+            }
+            if let Some(deg) = args.turn {
+                v.set_environment_rotation(rotation0 + deg * k as f32)?;
+            }
+        }
+        let stats = g.render_into(image.pixels.as_flattened_mut())?;
+        times.push(stats.seconds);
+    }
+    times.sort_by(f64::total_cmp);
+    let median = times[times.len() / 2];
+    let (out, _) = write_out(&args, &image)?;
+    if args.json {
+        println!(
+            "{}",
+            serde_json::json!({
+                "bake": args.bake,
+                "out": out,
+                "adapter": ctx.adapter_name(),
+                "width": width,
+                "height": height,
+                "frames": times.len(),
+                "seconds_per_frame_median": median,
+                "seconds_per_frame_min": times[0],
+                "clamped": clamped,
+            })
+        );
+    } else {
+        eprintln!(
+            "relit {width}x{height} on {} in {:.2} ms per frame; wrote {}",
+            ctx.adapter_name(),
+            median * 1e3,
+            out.display()
+        );
+    }
+    Ok(())
 }
 
 /// A per-pixel bake has its light and view frozen: the per-vertex flags are refused for it.
@@ -310,9 +392,9 @@ fn warn_about_edits(set: &[MaterialOverride], materials: &[MaterialInfo]) -> boo
     clamped
 }
 
-/// A per-vertex bake: environment, camera and image size, then the image (the materials are
-/// set by the caller).
-fn run_vertex(args: Args, mut r: VertexRelighter, clamped: bool) -> Result<()> {
+/// Applies the per-vertex flags (environment, its rotation and intensity, size, camera) and
+/// checks --orbit and --turn; returns the camera.
+fn set_up_vertex(args: &Args, r: &mut VertexRelighter) -> Result<prt_formats::view::CameraFrame> {
     if let Some(path) = &args.env {
         let report = r.load_environment(path)?;
         if report.clamped_texels > 0 {
@@ -348,6 +430,14 @@ fn run_vertex(args: Args, mut r: VertexRelighter, clamped: bool) -> Result<()> {
     if args.turn.is_some_and(|d| !d.is_finite()) {
         bail!("--turn must be a finite number of degrees");
     }
+    Ok(camera)
+}
+
+/// A per-vertex bake: environment, camera and image size, then the image (the materials are
+/// set by the caller).
+fn run_vertex(args: Args, mut r: VertexRelighter, clamped: bool) -> Result<()> {
+    let camera = set_up_vertex(&args, &mut r)?;
+    let (width, height) = r.size();
     let rotation0 = r.environment_rotation();
     let mut image = Image::new(width, height);
     let first = r.render_into(image.pixels.as_flattened_mut())?;

@@ -288,9 +288,16 @@ impl PixelRelighter {
 
     /// RGB coefficient of every global slot for the current parameters, and whether any
     /// parameter lay outside its basis' sampled range (and was clamped).
-    #[cfg(feature = "hooks")]
+    #[cfg(any(feature = "hooks", feature = "gpu-surface"))]
     pub fn coefficients(&self) -> (Vec<[f32; 3]>, bool) {
         self.materials.coefficients()
+    }
+
+    /// The opened bake file (feature `gpu-surface`): a GPU backend uploads its stored tensors
+    /// once and contracts them with weights from [`PixelRelighter::coefficients`] (docs/gpu.md).
+    #[cfg(feature = "gpu-surface")]
+    pub fn file(&self) -> &BakeFile {
+        &self.file
     }
 
     /// Chooses the inner loops (default [`crate::hooks::Kernel::Auto`]); the frames are the

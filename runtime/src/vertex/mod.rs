@@ -34,6 +34,8 @@ pub(crate) mod light;
 mod open;
 mod raster;
 mod shade;
+#[cfg(feature = "gpu-surface")]
+pub(crate) mod surface;
 pub(crate) mod view;
 
 pub use view::RasterError;
@@ -114,6 +116,10 @@ pub struct VertexRelighter {
     height: u32,
     /// The last eye that passed the inside-geometry check.
     eye_checked: Option<[f32; 3]>,
+    /// How many times the light stage and the material stage have run: a GPU backend
+    /// (feature `gpu-surface`) uploads their results again only when these move.
+    light_runs: u64,
+    material_runs: u64,
 }
 
 impl VertexRelighter {
@@ -208,6 +214,8 @@ impl VertexRelighter {
             width: DEFAULT_IMAGE_SIDE,
             height: DEFAULT_IMAGE_SIDE,
             eye_checked: None,
+            light_runs: 0,
+            material_runs: 0,
         })
     }
 
@@ -377,10 +385,7 @@ impl VertexRelighter {
         let start = Instant::now();
         let (camera, width, height) = (self.camera, self.width, self.height);
         check_len("the output buffer", out, width, height)?;
-        let rays = ViewRays::new(&camera, width, height)?;
-        self.check_eye(camera.position)?;
-        let light_s = self.ensure_light()?;
-        let material_s = self.ensure_shaded();
+        let (rays, light_s, material_s) = self.prepare_frame()?;
         let view_start = Instant::now();
         self.rasterizer.render(
             &self.scene.positions,
@@ -392,11 +397,46 @@ impl VertexRelighter {
         )?;
         let raster_s = view_start.elapsed().as_secs_f64();
         let (Some(light), Some(shaded)) = (&self.light, &self.shaded) else {
+            return Err(self.no_stage_result());
+        };
+        let inputs = ViewInputs {
+            scene: &self.scene,
+            shades: &shaded.groups,
+            file_bytes: self.file.file_bytes(),
+            cache: &self.view,
+            lobes: &shaded.lobes,
+            widths: &self.widths,
+            light: &light.coefficients,
+            environment: Environment {
+                map: self.lighting_map(),
+                back: rotation_y(-f64::from(self.rotation_deg)),
+                turned: self.rotation_deg != 0.0,
+            },
+            eye: camera.position,
+        };
+        shade::view_stage(&inputs, &rays, &self.visibility, self.simd, out);
+        Ok(RenderStats {
+            seconds: start.elapsed().as_secs_f64(),
+            light_s,
+            material_s,
+            view_s: Some(view_start.elapsed().as_secs_f64()),
+            raster_s: Some(raster_s),
+            bytes_read: None,
+        })
+    }
+
+    /// What a frame needs before its view stage: the camera's rays at the current size, the
+    /// eye check, the light and material stages (each when its inputs changed; their times
+    /// when they ran), the split widths' check against the light's prefiltered cubes and the
+    /// view stage's per-frame material table.
+    fn prepare_frame(&mut self) -> Result<(ViewRays, Option<f64>, Option<f64>), RuntimeError> {
+        let rays = ViewRays::new(&self.camera, self.width, self.height)?;
+        self.check_eye(self.camera.position)?;
+        let light_s = self.ensure_light()?;
+        let material_s = self.ensure_shaded();
+        let (Some(light), Some(shaded)) = (&self.light, &self.shaded) else {
             // Both were just made.
-            return Err(RuntimeError::VertexSchema {
-                path: self.file.path().display().to_string(),
-                reason: "the light or material stage has no result".into(),
-            });
+            return Err(self.no_stage_result());
         };
         for (b, ws) in self.widths.iter().enumerate() {
             for w in ws {
@@ -422,33 +462,23 @@ impl VertexRelighter {
             &shaded.lobes,
             &self.meta.material_textures,
         )?;
-        let inputs = ViewInputs {
-            scene: &self.scene,
-            shades: &shaded.groups,
-            file_bytes: self.file.file_bytes(),
-            cache: &self.view,
-            lobes: &shaded.lobes,
-            widths: &self.widths,
-            light: &light.coefficients,
-            environment: Environment {
-                map: self
-                    .scaled_environment
-                    .as_ref()
-                    .unwrap_or(&self.environment),
-                back: rotation_y(-f64::from(self.rotation_deg)),
-                turned: self.rotation_deg != 0.0,
-            },
-            eye: camera.position,
-        };
-        shade::view_stage(&inputs, &rays, &self.visibility, self.simd, out);
-        Ok(RenderStats {
-            seconds: start.elapsed().as_secs_f64(),
-            light_s,
-            material_s,
-            view_s: Some(view_start.elapsed().as_secs_f64()),
-            raster_s: Some(raster_s),
-            bytes_read: None,
-        })
+        Ok((rays, light_s, material_s))
+    }
+
+    /// The map that lights the scene: the environment as set, times its intensity.
+    fn lighting_map(&self) -> &LatLongMap {
+        self.scaled_environment
+            .as_ref()
+            .unwrap_or(&self.environment)
+    }
+
+    /// The error of a frame whose light or material stage left no result (never expected:
+    /// `prepare_frame` runs both).
+    fn no_stage_result(&self) -> RuntimeError {
+        RuntimeError::VertexSchema {
+            path: self.file.path().display().to_string(),
+            reason: "the light or material stage has no result".into(),
+        }
     }
 
     /// Chooses the view stage's inner loops (default [`crate::hooks::Kernel::Auto`]: AVX2
@@ -460,7 +490,7 @@ impl VertexRelighter {
 
     /// RGB coefficient of every global slot for the current parameters, and whether any
     /// parameter lay outside its basis' sampled range (and was clamped).
-    #[cfg(feature = "hooks")]
+    #[cfg(any(feature = "hooks", feature = "gpu-surface"))]
     pub fn coefficients(&self) -> (Vec<[f32; 3]>, bool) {
         self.materials.coefficients()
     }
@@ -532,6 +562,7 @@ impl VertexRelighter {
             coefficients,
             groups,
         });
+        self.light_runs += 1;
         self.shaded = None;
         Ok(Some(start.elapsed().as_secs_f64()))
     }
@@ -574,6 +605,7 @@ impl VertexRelighter {
             }));
         }
         self.shaded = Some(ShadeState { groups, lobes });
+        self.material_runs += 1;
         Some(start.elapsed().as_secs_f64())
     }
 }

@@ -107,19 +107,25 @@ impl ParamTaps {
     fn taps(&self) -> &[(usize, f32)] {
         &self.taps[..self.len]
     }
+
+    /// The taps and how many are used (for the GPU surface).
+    #[cfg(feature = "gpu-surface")]
+    pub(super) fn parts(&self) -> ([(usize, f32); 2], usize) {
+        (self.taps, self.len)
+    }
 }
 
 /// One material as the view stage reads it, gathered once per frame.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct MaterialView {
     /// Its group (None: no data, shown black).
-    group: Option<usize>,
-    kd: [f32; 3],
-    ks: [f32; 3],
+    pub(super) group: Option<usize>,
+    pub(super) kd: [f32; 3],
+    pub(super) ks: [f32; 3],
     /// Index into `Scene::textures`.
-    texture: Option<usize>,
+    pub(super) texture: Option<usize>,
     /// Its lobe's split reflectance taps (None: diffuse only).
-    taps: Option<ParamTaps>,
+    pub(super) taps: Option<ParamTaps>,
 }
 
 /// What the view stage keeps between frames so that a frame allocates nothing: the per-frame
@@ -132,6 +138,18 @@ pub(super) struct ViewCache {
 }
 
 impl ViewCache {
+    /// Material `m` as gathered for the current frame (for the GPU surface).
+    #[cfg(feature = "gpu-surface")]
+    pub(super) fn material(&self, m: usize) -> Option<&MaterialView> {
+        self.materials.get(m)
+    }
+
+    /// Where group `g`'s visibility tensor lies in the file's bytes (for the GPU surface).
+    #[cfg(feature = "gpu-surface")]
+    pub(super) fn visibility_range(&self, g: usize) -> Option<Range<usize>> {
+        self.visibility.get(g).cloned()
+    }
+
     /// Finds the groups' visibility tensors (once per file) and gathers the materials.
     pub(super) fn prepare(
         &mut self,

@@ -1,0 +1,581 @@
+// The per-vertex view stage (docs/vertex.md, sections 3 and 4; docs/gpu.md): the mesh is
+// drawn by the rasterizer, which interpolates each fragment's barycentric weights
+// perspective-correctly; the fragment shader blends the triangle's three vertex records with
+// them and shades the last reflection towards the eye (Tucker shading with the specular
+// split), the CPU runtime's `shade` step for step. Pixels no triangle covers show the
+// environment (the `background` entry points).
+//
+// Why the records are blended here and not passed as vertex outputs: a record is up to
+// 6 + 48 + 3 r_i floats (78 for the thesis' ranks), beyond the 16 four-float locations a
+// vertex may pass to the rasterizer; the weights it interpolates are the same ones.
+
+struct Frame {
+    eye: vec4<f32>,
+    right: vec4<f32>,
+    up: vec4<f32>,
+    forward: vec4<f32>,
+    // Rows of R_y(-rotation): radiance from world direction d is the map's from back d.
+    back0: vec4<f32>,
+    back1: vec4<f32>,
+    back2: vec4<f32>,
+    tan_half_fov: f32,
+    aspect: f32,
+    near: f32,
+    turned: u32,
+    width: f32,
+    height: f32,
+    env_width: u32,
+    env_height: u32,
+    // Offsets into `geometry` (floats) and `index` (words).
+    normals_at: u32,
+    uvs_at: u32,
+    materials_of_at: u32,
+    vertex_info_at: u32,
+    texture_info_at: u32,
+    cube_size_at: u32,
+    pad0: u32,
+    pad1: u32,
+}
+
+struct Material {
+    kd: vec3<f32>,
+    // Its group, or -1: no data, shown black.
+    group: i32,
+    ks: vec3<f32>,
+    // Its texture, or -1.
+    texture: i32,
+    // Its shading basis, or -1: diffuse only.
+    basis: i32,
+    // Where its contracted core (r_o x r_i) starts in `cores`.
+    core_at: u32,
+    taps_len: u32,
+    tap0: u32,
+    tap0_w: f32,
+    tap1: u32,
+    tap1_w: f32,
+    pad: u32,
+}
+
+struct Basis {
+    n_theta: u32,
+    n_phi: u32,
+    r_o: u32,
+    r_i: u32,
+    n_widths: u32,
+    n_dirs: u32,
+    // Offsets into `tables` (floats).
+    u_o_at: u32,
+    u_o_pole_at: u32,
+    refl_at: u32,
+    refl_pole_at: u32,
+    // Per split width 8 floats: the prefiltered cube (bits of an i32, -1: the environment),
+    // then the 4 SH band factors.
+    widths_at: u32,
+    pad: u32,
+}
+
+@group(0) @binding(0) var<uniform> frame: Frame;
+// Positions (3 per vertex), then normals, then texture coordinates (2 per vertex).
+@group(0) @binding(1) var<storage, read> geometry: array<f32>;
+// Triangles (3 per triangle), their materials, per vertex (record offset, visibility
+// offset in bytes), per texture (offset in `tables`, width, height, 0), per cube its side.
+@group(0) @binding(2) var<storage, read> index: array<u32>;
+@group(0) @binding(3) var<storage, read> records: array<f32>;
+@group(0) @binding(4) var<storage, read> visibility: array<u32>;
+@group(0) @binding(5) var<storage, read> materials: array<Material>;
+@group(0) @binding(6) var<storage, read> bases: array<Basis>;
+// The bases' tables and the textures' texels (3 per texel).
+@group(0) @binding(7) var<storage, read> tables: array<f32>;
+// The lighting map's texels (3 per texel) and the materials' contracted cores.
+@group(0) @binding(8) var<storage, read> environment: array<f32>;
+@group(0) @binding(9) var<storage, read> cores: array<f32>;
+// The prefiltered cubes, cube c in layers 6 c .. 6 c + 5 (face order +X -X +Y -Y +Z -Z),
+// each in the top-left side x side texels.
+@group(0) @binding(10) var cubes: texture_2d_array<f32>;
+
+const PI: f32 = 3.14159265358979;
+const TAU: f32 = 6.28318530717959;
+const E_AT: u32 = 0u;
+const I2_AT: u32 = 3u;
+const I1_AT: u32 = 6u;
+const U_AT: u32 = 54u;
+const VISIBILITY_CUBE: u32 = 16u;
+const MAX_RANK: u32 = 32u;
+const MAX_WIDTHS: u32 = 8u;
+
+struct MeshOut {
+    @builtin(position) position: vec4<f32>,
+    // The weights of the triangle's vertices 1 and 2 (vertex 0's is 1 minus both).
+    @location(0) bary: vec2<f32>,
+    @location(1) @interpolate(flat) triangle: u32,
+}
+
+fn position_of(v: u32) -> vec3<f32> {
+    return vec3<f32>(geometry[3u * v], geometry[3u * v + 1u], geometry[3u * v + 2u]);
+}
+
+fn normal_of(v: u32) -> vec3<f32> {
+    let at = frame.normals_at + 3u * v;
+    return vec3<f32>(geometry[at], geometry[at + 1u], geometry[at + 2u]);
+}
+
+fn uv_of(v: u32) -> vec2<f32> {
+    let at = frame.uvs_at + 2u * v;
+    return vec2<f32>(geometry[at], geometry[at + 1u]);
+}
+
+// Non-indexed draw of 3 T vertices: vertex k of the draw is corner k % 3 of triangle k / 3.
+@vertex
+fn mesh_vertex(@builtin(vertex_index) k: u32) -> MeshOut {
+    let t = k / 3u;
+    let corner = k % 3u;
+    let p = position_of(index[3u * t + corner]) - frame.eye.xyz;
+    let x = dot(p, frame.right.xyz);
+    let y = dot(p, frame.up.xyz);
+    let z = dot(p, frame.forward.xyz);
+    var out: MeshOut;
+    // The film formula (docs/conventions.md, "Camera"): x_ndc = (x / z) / (tan aspect), and
+    // reversed depth near / z (1 at the near plane, towards 0 far away; compared "greater").
+    out.position = vec4<f32>(x / (frame.tan_half_fov * frame.aspect), y / frame.tan_half_fov, frame.near, z);
+    out.bary = vec2<f32>(select(0.0, 1.0, corner == 1u), select(0.0, 1.0, corner == 2u));
+    out.triangle = t;
+    return out;
+}
+
+@fragment
+fn mesh_fragment(in: MeshOut) -> @location(0) vec4<f32> {
+    return vec4<f32>(shade(in.triangle, in.bary), 1.0);
+}
+
+struct BackgroundOut {
+    @builtin(position) position: vec4<f32>,
+}
+
+// One triangle covering the image at depth 0 (the far end of the reversed depth).
+@vertex
+fn background_vertex(@builtin(vertex_index) k: u32) -> BackgroundOut {
+    let xy = vec2<f32>(f32((k << 1u) & 2u), f32(k & 2u)) * 2.0 - 1.0;
+    var out: BackgroundOut;
+    out.position = vec4<f32>(xy, 0.0, 1.0);
+    return out;
+}
+
+@fragment
+fn background_fragment(in: BackgroundOut) -> @location(0) vec4<f32> {
+    // The pixel's centre, (x + 0.5, y + 0.5), through the film formula.
+    let sx = (2.0 * in.position.x / frame.width - 1.0) * frame.tan_half_fov * frame.aspect;
+    let sy = (1.0 - 2.0 * in.position.y / frame.height) * frame.tan_half_fov;
+    let d = normalize(frame.forward.xyz + frame.right.xyz * sx + frame.up.xyz * sy);
+    return vec4<f32>(radiance(d), 1.0);
+}
+
+// R_y(-rotation) d.
+fn turn_back(d: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(dot(frame.back0.xyz, d), dot(frame.back1.xyz, d), dot(frame.back2.xyz, d));
+}
+
+fn env_texel(x: u32, y: u32) -> vec3<f32> {
+    let at = 3u * (y * frame.env_width + x);
+    return vec3<f32>(environment[at], environment[at + 1u], environment[at + 2u]);
+}
+
+// The environment's radiance from world direction d: the lat-long map at back d, bilinear
+// (prt_formats::latlong::lookup_bilinear).
+fn radiance(d: vec3<f32>) -> vec3<f32> {
+    let r = turn_back(d);
+    let theta = acos(clamp(r.y, -1.0, 1.0));
+    let phi = atan2(r.x, -r.z);
+    let uu = phi / TAU + 0.5;
+    let u = uu - floor(uu);
+    let v = clamp(theta / PI, 0.0, 1.0);
+    let w = frame.env_width;
+    let h = frame.env_height;
+    let fx = (u - floor(u)) * f32(w) - 0.5;
+    let x_floor = floor(fx);
+    let tx = clamp(fx - x_floor, 0.0, 1.0);
+    let x0 = u32(((i32(x_floor) % i32(w)) + i32(w)) % i32(w));
+    let x1 = select(x0 + 1u, 0u, x0 + 1u == w);
+    let fy = v * f32(h) - 0.5;
+    var y0 = 0u;
+    var y1 = 0u;
+    var ty = 0.0;
+    if fy <= 0.0 {
+        y0 = 0u;
+        y1 = 0u;
+    } else if fy >= f32(h - 1u) {
+        y0 = h - 1u;
+        y1 = h - 1u;
+    } else {
+        let y_floor = floor(fy);
+        y0 = min(u32(y_floor), h - 1u);
+        y1 = min(y0 + 1u, h - 1u);
+        ty = clamp(fy - y_floor, 0.0, 1.0);
+    }
+    return env_texel(x0, y0) * ((1.0 - tx) * (1.0 - ty)) + env_texel(x1, y0) * (tx * (1.0 - ty))
+        + env_texel(x0, y1) * ((1.0 - tx) * ty) + env_texel(x1, y1) * (tx * ty);
+}
+
+// prt_formats::lighting::cubemap::direction_to_face_st: (face, s, t).
+struct FaceSt {
+    face: u32,
+    s: f32,
+    t: f32,
+}
+
+fn face_st(d: vec3<f32>) -> FaceSt {
+    let a = abs(d);
+    var out: FaceSt;
+    if !(a.x < 3.4e38 && a.y < 3.4e38 && a.z < 3.4e38) || (a.x == 0.0 && a.y == 0.0 && a.z == 0.0) {
+        out.face = 0u;
+        out.s = 0.5;
+        out.t = 0.5;
+        return out;
+    }
+    var u = 0.0;
+    var v = 0.0;
+    var major = 1.0;
+    if a.x >= a.y && a.x >= a.z {
+        major = a.x;
+        if d.x > 0.0 {
+            out.face = 0u; u = -d.z; v = -d.y;
+        } else {
+            out.face = 1u; u = d.z; v = -d.y;
+        }
+    } else if a.y >= a.z {
+        major = a.y;
+        if d.y > 0.0 {
+            out.face = 2u; u = d.x; v = d.z;
+        } else {
+            out.face = 3u; u = d.x; v = -d.z;
+        }
+    } else {
+        major = a.z;
+        if d.z > 0.0 {
+            out.face = 4u; u = d.x; v = -d.y;
+        } else {
+            out.face = 5u; u = -d.x; v = -d.y;
+        }
+    }
+    out.s = clamp(0.5 * (u / major + 1.0), 0.0, 1.0);
+    out.t = clamp(0.5 * (v / major + 1.0), 0.0, 1.0);
+    return out;
+}
+
+// The direction of face coordinates (a, b) in [-1, 1] (unnormalized).
+fn face_ab_to_vector(face: u32, a: f32, b: f32) -> vec3<f32> {
+    switch face {
+        case 0u: { return vec3<f32>(1.0, -b, -a); }
+        case 1u: { return vec3<f32>(-1.0, -b, a); }
+        case 2u: { return vec3<f32>(a, 1.0, b); }
+        case 3u: { return vec3<f32>(a, -1.0, -b); }
+        case 4u: { return vec3<f32>(a, -b, 1.0); }
+        default: { return vec3<f32>(-a, -b, -1.0); }
+    }
+}
+
+// Cube c's texel (i, j) of face f, where (i, j) may lie one texel off the face: then the
+// texel of the neighbouring face holding that point (CubeMap::lookup_bilinear_face_st).
+fn cube_texel(c: u32, n: u32, f: u32, i: i32, j: i32) -> vec3<f32> {
+    var face = f;
+    var x = i;
+    var y = j;
+    if i < 0 || j < 0 || i >= i32(n) || j >= i32(n) {
+        let nf = f32(n);
+        let a = 2.0 * (f32(i) + 0.5) / nf - 1.0;
+        let b = 2.0 * (f32(j) + 0.5) / nf - 1.0;
+        let at = face_st(face_ab_to_vector(f, a, b));
+        face = at.face;
+        x = i32(min(u32(at.s * nf), n - 1u));
+        y = i32(min(u32(at.t * nf), n - 1u));
+    }
+    return textureLoad(cubes, vec2<i32>(x, y), i32(6u * c + face), 0).xyz;
+}
+
+// Cube c at (face, s, t), bilinear across face edges.
+fn cube_bilinear(c: u32, at: FaceSt) -> vec3<f32> {
+    let n = index[frame.cube_size_at + c];
+    let nf = f32(n);
+    let fx = at.s * nf - 0.5;
+    let fy = at.t * nf - 0.5;
+    let x0 = floor(fx);
+    let y0 = floor(fy);
+    let tx = fx - x0;
+    let ty = fy - y0;
+    let i = i32(x0);
+    let j = i32(y0);
+    return cube_texel(c, n, at.face, i, j) * ((1.0 - tx) * (1.0 - ty))
+        + cube_texel(c, n, at.face, i + 1, j) * (tx * (1.0 - ty))
+        + cube_texel(c, n, at.face, i, j + 1) * ((1.0 - tx) * ty)
+        + cube_texel(c, n, at.face, i + 1, j + 1) * (tx * ty);
+}
+
+// prt_formats::vertex::vertex_frame: the tangent and bitangent of normal n.
+fn vertex_frame_t(n: vec3<f32>) -> vec3<f32> {
+    let a = vec3<f32>(0.13018891, 0.39056673, 0.9113224);
+    let b = vec3<f32>(0.9113224, 0.13018891, -0.39056673);
+    var t = cross(a, n);
+    var len2 = dot(t, t);
+    if len2 < 0.02 {
+        t = cross(b, n);
+        len2 = dot(t, t);
+    }
+    return t * (1.0 / sqrt(len2));
+}
+
+// The 16 real SH basis functions of order 4 at unit d (prt_formats::lighting::sh::sh_eval).
+fn sh_eval(d: vec3<f32>, y: ptr<function, array<f32, 16>>) {
+    let x = d.x;
+    let yy = d.y;
+    let z = d.z;
+    let x2 = x * x;
+    let y2 = yy * yy;
+    let z2 = z * z;
+    (*y)[0] = 0.28209479177387814;
+    (*y)[1] = -0.4886025119029199 * yy;
+    (*y)[2] = 0.4886025119029199 * z;
+    (*y)[3] = -0.4886025119029199 * x;
+    (*y)[4] = 1.0925484305920792 * x * yy;
+    (*y)[5] = -1.0925484305920792 * yy * z;
+    (*y)[6] = 0.31539156525252005 * (3.0 * z2 - 1.0);
+    (*y)[7] = -1.0925484305920792 * x * z;
+    (*y)[8] = 0.5462742152960396 * (x2 - y2);
+    (*y)[9] = -0.5900435899266435 * yy * (3.0 * x2 - y2);
+    (*y)[10] = 2.890611442640554 * x * yy * z;
+    (*y)[11] = -0.4570457994644658 * yy * (5.0 * z2 - 1.0);
+    (*y)[12] = 0.3731763325901154 * z * (5.0 * z2 - 3.0);
+    (*y)[13] = -0.4570457994644658 * x * (5.0 * z2 - 1.0);
+    (*y)[14] = 1.445305721320277 * z * (x2 - y2);
+    (*y)[15] = -0.5900435899266435 * x * (x2 - 3.0 * y2);
+}
+
+fn sh_band(s: u32) -> u32 {
+    if s == 0u {
+        return 0u;
+    }
+    if s <= 3u {
+        return 1u;
+    }
+    if s <= 8u {
+        return 2u;
+    }
+    return 3u;
+}
+
+// HemiGrid::weights: the four surrounding nodes of a local direction and the pole's weight.
+struct HemiWeights {
+    n: array<u32, 4>,
+    w: array<f32, 4>,
+    pole: f32,
+}
+
+fn hemi_weights(w: vec3<f32>, nt: u32, np: u32) -> HemiWeights {
+    var out: HemiWeights;
+    let len2 = dot(w, w);
+    if !(len2 > 0.0 && len2 < 3.4e38) {
+        out.pole = 1.0;
+        return out;
+    }
+    let z = clamp(w.z / sqrt(len2), -1.0, 1.0);
+    let v = (1.0 - z) * f32(nt) - 0.5;
+    var j0 = 0u;
+    var j1 = 0u;
+    var fz = 0.0;
+    var pole = 0.0;
+    if v <= 0.0 {
+        pole = min(-2.0 * v, 1.0);
+    } else if v >= f32(nt - 1u) {
+        j0 = nt - 1u;
+        j1 = nt - 1u;
+    } else {
+        j0 = min(u32(v), nt - 2u);
+        j1 = j0 + 1u;
+        fz = clamp(v - f32(j0), 0.0, 1.0);
+    }
+    let u = atan2(w.y, w.x) * (f32(np) / TAU) - 0.5;
+    let uf = floor(u);
+    let fp = clamp(u - uf, 0.0, 1.0);
+    let k0 = u32(((i32(uf) % i32(np)) + i32(np)) % i32(np));
+    let k1 = select(k0 + 1u, 0u, k0 + 1u >= np);
+    let ring = 1.0 - pole;
+    let a = ring * (1.0 - fz);
+    let b = ring * fz;
+    out.n = array<u32, 4>(j0 * np + k0, j0 * np + k1, j1 * np + k0, j1 * np + k1);
+    out.w = array<f32, 4>(a * (1.0 - fp), a * fp, b * (1.0 - fp), b * fp);
+    out.pole = pole;
+    return out;
+}
+
+fn texture_rgb(t: u32, uv: vec2<f32>) -> vec3<f32> {
+    let info = frame.texture_info_at + 4u * t;
+    let at = index[info];
+    let width = index[info + 1u];
+    let height = index[info + 2u];
+    if width == 0u || height == 0u || !(abs(uv.x) < 3.4e38 && abs(uv.y) < 3.4e38) {
+        return vec3<f32>(1.0);
+    }
+    // prt_formats::texture::sample_bilinear: wrapped.
+    let x = uv.x * f32(width) - 0.5;
+    let y = uv.y * f32(height) - 0.5;
+    let x0 = floor(x);
+    let y0 = floor(y);
+    let fx = x - x0;
+    let fy = y - y0;
+    let xa = u32(((i32(x0) % i32(width)) + i32(width)) % i32(width));
+    let xb = u32(((i32(x0 + 1.0) % i32(width)) + i32(width)) % i32(width));
+    let ya = u32(((i32(y0) % i32(height)) + i32(height)) % i32(height));
+    let yb = u32(((i32(y0 + 1.0) % i32(height)) + i32(height)) % i32(height));
+    let t00 = tex_texel(at, ya * width + xa);
+    let t01 = tex_texel(at, ya * width + xb);
+    let t10 = tex_texel(at, yb * width + xa);
+    let t11 = tex_texel(at, yb * width + xb);
+    return t00 * ((1.0 - fx) * (1.0 - fy)) + t01 * (fx * (1.0 - fy)) + t10 * ((1.0 - fx) * fy)
+        + t11 * (fx * fy);
+}
+
+fn tex_texel(at: u32, i: u32) -> vec3<f32> {
+    let k = at + 3u * i;
+    return vec3<f32>(tables[k], tables[k + 1u], tables[k + 2u]);
+}
+
+fn visible_byte(at: u32) -> f32 {
+    let word = visibility[at >> 2u];
+    return f32((word >> (8u * (at & 3u))) & 255u) / 255.0;
+}
+
+// The radiance towards the eye from triangle t at barycentrics bary (runtime `shade`).
+fn shade(t: u32, bary: vec2<f32>) -> vec3<f32> {
+    let v0 = index[3u * t];
+    let v1 = index[3u * t + 1u];
+    let v2 = index[3u * t + 2u];
+    let m = materials[index[frame.materials_of_at + t]];
+    let w = vec3<f32>(1.0 - bary.x - bary.y, bary.x, bary.y);
+    let n = normalize(w.x * normal_of(v0) + w.y * normal_of(v1) + w.z * normal_of(v2));
+    let p = w.x * position_of(v0) + w.y * position_of(v1) + w.z * position_of(v2);
+    let wo = normalize(frame.eye.xyz - p);
+    if m.group < 0 {
+        return vec3<f32>(0.0);
+    }
+    let glossy = m.basis >= 0;
+    let n_dot_wo = dot(n, wo);
+    var tangent = vec3<f32>(0.0);
+    var bitangent = vec3<f32>(0.0);
+    var wo_l = vec3<f32>(0.0, 0.0, 1.0);
+    if glossy || !(n_dot_wo > 0.0) {
+        tangent = vertex_frame_t(n);
+        bitangent = cross(n, tangent);
+        wo_l = vec3<f32>(dot(tangent, wo), dot(bitangent, wo), dot(n, wo));
+        if !(wo_l.z > 0.0) {
+            // Near a silhouette the interpolated normal can turn away from the eye while the
+            // triangle faces it: shade as seen from just above the horizon. A triangle whose
+            // data side faces away is seen from the side without data: black.
+            let p0 = position_of(v0);
+            var ng = cross(position_of(v1) - p0, position_of(v2) - p0);
+            if dot(ng, n) < 0.0 {
+                ng = -ng;
+            }
+            if !(dot(ng, wo) > 0.0) {
+                return vec3<f32>(0.0);
+            }
+            let h = sqrt(wo_l.x * wo_l.x + wo_l.y * wo_l.y);
+            if !(h > 0.0) {
+                return vec3<f32>(0.0);
+            }
+            let z = 1e-3;
+            let k = sqrt(1.0 - z * z) / h;
+            wo_l = vec3<f32>(wo_l.x * k, wo_l.y * k, z);
+        }
+    }
+    let r0 = index[frame.vertex_info_at + 2u * v0];
+    let r1 = index[frame.vertex_info_at + 2u * v1];
+    let r2 = index[frame.vertex_info_at + 2u * v2];
+    var tex = vec3<f32>(1.0);
+    if m.texture >= 0 {
+        let uv = w.x * uv_of(v0) + w.y * uv_of(v1) + w.z * uv_of(v2);
+        tex = texture_rgb(u32(m.texture), uv);
+    }
+    let e = rec3(r0, r1, r2, w, E_AT);
+    var b = m.kd * tex * (1.0 / PI) * e;
+    if !glossy {
+        // The irradiance's kept Haar terms and SH can ring below 0 too.
+        return max(b, vec3<f32>(0.0));
+    }
+    let basis = bases[u32(m.basis)];
+    // The mirror direction, local and world.
+    let r_l = vec3<f32>(-wo_l.x, -wo_l.y, wo_l.z);
+    let r_w = tangent * r_l.x + bitangent * r_l.y + n * r_l.z;
+    let at = face_st(r_w);
+    // Visible fraction of the 16-cube texel holding r, interpolated over the vertices.
+    let vi = min(u32(at.s * f32(VISIBILITY_CUBE)), VISIBILITY_CUBE - 1u);
+    let vj = min(u32(at.t * f32(VISIBILITY_CUBE)), VISIBILITY_CUBE - 1u);
+    let texel = (at.face * VISIBILITY_CUBE + vj) * VISIBILITY_CUBE + vi;
+    let visible = w.x * visible_byte(index[frame.vertex_info_at + 2u * v0 + 1u] + texel)
+        + w.y * visible_byte(index[frame.vertex_info_at + 2u * v1 + 1u] + texel)
+        + w.z * visible_byte(index[frame.vertex_info_at + 2u * v2 + 1u] + texel);
+    // I1's SH at r, summed per band.
+    var y: array<f32, 16>;
+    sh_eval(r_l, &y);
+    var bands: array<vec3<f32>, 4>;
+    for (var s = 0u; s < 16u; s = s + 1u) {
+        let l = sh_band(s);
+        bands[l] = bands[l] + rec3(r0, r1, r2, w, I1_AT + 3u * s) * y[s];
+    }
+    var pat = at;
+    if frame.turned != 0u {
+        pat = face_st(turn_back(r_w));
+    }
+    let i2 = rec3(r0, r1, r2, w, I2_AT);
+    var prefiltered: array<vec3<f32>, 8>;
+    for (var k = 0u; k < basis.n_widths; k = k + 1u) {
+        let wat = basis.widths_at + 8u * k;
+        let cube = bitcast<i32>(tables[wat]);
+        var ibar = vec3<f32>(0.0);
+        if cube < 0 {
+            ibar = radiance(r_w);
+        } else {
+            ibar = cube_bilinear(u32(cube), pat);
+        }
+        let sh = tables[wat + 1u] * bands[0] + tables[wat + 2u] * bands[1]
+            + tables[wat + 3u] * bands[2] + tables[wat + 4u] * bands[3];
+        prefiltered[k] = visible * ibar + sh + i2;
+    }
+    // U^o(wo) and the split reflectances share wo's grid weights.
+    let dw = hemi_weights(wo_l, basis.n_theta, basis.n_phi);
+    var spec = vec3<f32>(0.0);
+    for (var bo = 0u; bo < basis.r_o; bo = bo + 1u) {
+        var uo = dw.pole * tables[basis.u_o_pole_at + bo];
+        for (var q = 0u; q < 4u; q = q + 1u) {
+            uo = uo + dw.w[q] * tables[basis.u_o_at + dw.n[q] * basis.r_o + bo];
+        }
+        var s = vec3<f32>(0.0);
+        for (var c = 0u; c < basis.r_i; c = c + 1u) {
+            s = s + cores[m.core_at + bo * basis.r_i + c] * rec3(r0, r1, r2, w, U_AT + 3u * c);
+        }
+        spec = spec + uo * s;
+    }
+    let nw = basis.n_widths;
+    let slab = basis.n_dirs * nw;
+    for (var k = 0u; k < nw; k = k + 1u) {
+        var rw = 0.0;
+        for (var tap = 0u; tap < m.taps_len; tap = tap + 1u) {
+            let j = select(m.tap0, m.tap1, tap == 1u);
+            let sw = select(m.tap0_w, m.tap1_w, tap == 1u);
+            for (var q = 0u; q < 4u; q = q + 1u) {
+                rw = rw + dw.w[q] * sw * tables[basis.refl_at + j * slab + dw.n[q] * nw + k];
+            }
+            rw = rw + dw.pole * sw * tables[basis.refl_pole_at + j * nw + k];
+        }
+        spec = spec + rw * prefiltered[k];
+    }
+    b = b + m.ks * spec;
+    // Radiance is never negative, but its approximations can ring below 0 next to sharp
+    // features: clamp them, as the CPU runtime does.
+    return max(b, vec3<f32>(0.0));
+}
+
+// The RGB part of the records at `at`, blended with the weights w.
+fn rec3(r0: u32, r1: u32, r2: u32, w: vec3<f32>, at: u32) -> vec3<f32> {
+    let a = vec3<f32>(records[r0 + at], records[r0 + at + 1u], records[r0 + at + 2u]);
+    let b = vec3<f32>(records[r1 + at], records[r1 + at + 1u], records[r1 + at + 2u]);
+    let c = vec3<f32>(records[r2 + at], records[r2 + at + 1u], records[r2 + at + 2u]);
+    return w.x * a + w.y * b + w.z * c;
+}

@@ -1,0 +1,920 @@
+//! The per-vertex view stage on the GPU (docs/gpu.md, "Per-vertex"): a render pipeline draws
+//! the mesh (the rasterizer interpolates barycentric weights perspective-correctly, with a
+//! reversed depth test) and its fragment shader shades the last reflection from the vertex
+//! records (`shaders/vertex.wgsl`); a second pipeline fills the pixels no triangle covers with
+//! the environment.
+//!
+//! The light and material stages run on the CPU (`prt_runtime`'s, through its `gpu-surface`
+//! feature); their results (the vertex records, the environment map, its prefiltered cubes,
+//! the materials' contracted cores) are uploaded when the stages' run counters move, so a
+//! view-only frame uploads one uniform block and nothing else, and a frame allocates nothing
+//! on the device once its size is set.
+
+use prt_formats::lighting::cubemap::rotation_y;
+use prt_runtime::gpu_surface::VertexSurface;
+use prt_runtime::VertexRelighter;
+
+use crate::context::GpuContext;
+use crate::error::GpuError;
+use crate::pixel::upload;
+use crate::readback::Readback;
+
+/// The rasterizer's near plane, relative to the scene's depth (the CPU rasterizer's
+/// `NEAR_PLANE_RELATIVE`, here of the bounding box's farthest corner).
+const NEAR_PLANE_RELATIVE: f32 = 1e-5;
+
+/// The visibility bytes per vertex of a group with a shading basis (6 x 16 x 16).
+const VISIBILITY_BYTES: usize = 6 * 16 * 16;
+
+/// `Frame` in the shader.
+#[repr(C)]
+#[derive(Clone, Copy, Default, bytemuck::Pod, bytemuck::Zeroable)]
+struct FrameBlock {
+    eye: [f32; 4],
+    right: [f32; 4],
+    up: [f32; 4],
+    forward: [f32; 4],
+    back: [[f32; 4]; 3],
+    tan_half_fov: f32,
+    aspect: f32,
+    near: f32,
+    turned: u32,
+    width: f32,
+    height: f32,
+    env_width: u32,
+    env_height: u32,
+    normals_at: u32,
+    uvs_at: u32,
+    materials_of_at: u32,
+    vertex_info_at: u32,
+    texture_info_at: u32,
+    cube_size_at: u32,
+    pad: [u32; 2],
+}
+
+/// `Material` in the shader.
+#[repr(C)]
+#[derive(Clone, Copy, Default, bytemuck::Pod, bytemuck::Zeroable)]
+struct MaterialBlock {
+    kd: [f32; 3],
+    group: i32,
+    ks: [f32; 3],
+    texture: i32,
+    basis: i32,
+    core_at: u32,
+    taps_len: u32,
+    tap0: u32,
+    tap0_w: f32,
+    tap1: u32,
+    tap1_w: f32,
+    pad: u32,
+}
+
+/// `Basis` in the shader.
+#[repr(C)]
+#[derive(Clone, Copy, Default, bytemuck::Pod, bytemuck::Zeroable)]
+struct BasisBlock {
+    n_theta: u32,
+    n_phi: u32,
+    r_o: u32,
+    r_i: u32,
+    n_widths: u32,
+    n_dirs: u32,
+    u_o_at: u32,
+    u_o_pole_at: u32,
+    refl_at: u32,
+    refl_pole_at: u32,
+    widths_at: u32,
+    pad: u32,
+}
+
+/// The image being rendered and its read-back copy, made for one size.
+struct Target {
+    width: u32,
+    height: u32,
+    color: wgpu::Texture,
+    color_view: wgpu::TextureView,
+    depth_view: wgpu::TextureView,
+    readback: Readback,
+    /// Bytes per row of the read-back copy (a multiple of 256).
+    row_pitch: u32,
+}
+
+/// The GPU side of a per-vertex bake.
+pub(crate) struct VertexGpu {
+    ctx: GpuContext,
+    layout: wgpu::BindGroupLayout,
+    mesh_pipeline: wgpu::RenderPipeline,
+    background_pipeline: wgpu::RenderPipeline,
+    frame: wgpu::Buffer,
+    geometry: wgpu::Buffer,
+    index: wgpu::Buffer,
+    records: wgpu::Buffer,
+    visibility: wgpu::Buffer,
+    materials: wgpu::Buffer,
+    bases: wgpu::Buffer,
+    tables: wgpu::Buffer,
+    environment: wgpu::Buffer,
+    cores: wgpu::Buffer,
+    cubes: wgpu::Texture,
+    bind_group: wgpu::BindGroup,
+    /// The stages' run counts whose results are on the device.
+    light_runs: u64,
+    material_runs: u64,
+    triangles: u32,
+    /// The mesh's bounding box (for the near plane).
+    bounds: [[f32; 3]; 2],
+    offsets: FrameBlock,
+    target: Option<Target>,
+    /// Host scratch of the uploads, kept between frames.
+    record_data: Vec<f32>,
+    material_data: Vec<MaterialBlock>,
+    core_data: Vec<f32>,
+    cube_data: Vec<[f32; 4]>,
+}
+
+/// Refuses a buffer larger than one storage binding.
+fn check_binding(ctx: &GpuContext, what: &str, bytes: u64) -> Result<(), GpuError> {
+    let max = ctx.max_binding_bytes();
+    if bytes > max {
+        return Err(GpuError::Limit {
+            limit: "max_storage_buffer_binding_size",
+            what: what.to_string(),
+            needed: bytes,
+            max,
+        });
+    }
+    Ok(())
+}
+
+fn storage_buffer(ctx: &GpuContext, label: &str, bytes: &[u8]) -> Result<wgpu::Buffer, GpuError> {
+    check_binding(ctx, label, bytes.len() as u64)?;
+    upload(
+        ctx,
+        label,
+        bytes,
+        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+    )
+}
+
+impl VertexGpu {
+    /// Uploads the mesh, the vertex records, the shading tables, the textures and the light
+    /// of `r` (whose stages must have run: `VertexRelighter::prepare_stages`).
+    pub(crate) fn new(ctx: &GpuContext, r: &VertexRelighter) -> Result<VertexGpu, GpuError> {
+        let Some(s) = r.surface() else {
+            return Err(GpuError::Unsupported(
+                "the light and material stages have not run".into(),
+            ));
+        };
+        ctx.checked("uploading a per-vertex bake", || Self::create(ctx, &s))
+    }
+
+    fn create(ctx: &GpuContext, s: &VertexSurface) -> Result<VertexGpu, GpuError> {
+        let device = &ctx.device;
+        let positions = s.positions();
+        let nv = positions.len();
+        let triangles = s.triangles();
+        // Geometry: positions, normals, texture coordinates.
+        let mut geometry: Vec<f32> = Vec::with_capacity(8 * nv);
+        geometry.extend(positions.iter().flatten());
+        geometry.extend(s.normals().iter().flatten());
+        geometry.extend(s.uvs().iter().flatten());
+        let mut bounds = [[f32::INFINITY; 3], [f32::NEG_INFINITY; 3]];
+        for p in positions.iter().filter(|p| p.iter().all(|c| c.is_finite())) {
+            for c in 0..3 {
+                bounds[0][c] = bounds[0][c].min(p[c]);
+                bounds[1][c] = bounds[1][c].max(p[c]);
+            }
+        }
+        // Records of all groups back to back; each vertex's offset into them.
+        let mut record_at = Vec::with_capacity(s.groups());
+        let mut vis_at = Vec::with_capacity(s.groups());
+        let (mut records_len, mut vis_len) = (0usize, 0usize);
+        for g in 0..s.groups() {
+            record_at.push(records_len);
+            vis_at.push(vis_len);
+            records_len += s.records(g).1.len();
+            vis_len += s.visibility(g).len();
+        }
+        let mut index: Vec<u32> =
+            Vec::with_capacity(3 * triangles.len() + triangles.len() + 2 * nv);
+        index.extend(triangles.iter().flatten());
+        let materials_of_at = index.len() as u32;
+        index.extend(s.triangle_material());
+        let vertex_info_at = index.len() as u32;
+        for &(g, local) in s.vertex_group() {
+            let g = g as usize;
+            if g < s.groups() {
+                let stride = s.records(g).0;
+                let vis = if s.visibility(g).is_empty() {
+                    0
+                } else {
+                    vis_at[g] + local as usize * VISIBILITY_BYTES
+                };
+                index.push((record_at[g] + local as usize * stride) as u32);
+                index.push(vis as u32);
+            } else {
+                index.extend([0, 0]);
+            }
+        }
+        if records_len > u32::MAX as usize || vis_len > u32::MAX as usize {
+            return Err(GpuError::Limit {
+                limit: "max_storage_buffer_binding_size",
+                what: "the vertex records or visibility (32-bit offsets)".into(),
+                needed: (4 * records_len).max(vis_len) as u64,
+                max: u64::from(u32::MAX),
+            });
+        }
+        // Tables: per basis its U^o, pole row, reflectances, their pole rows and widths;
+        // then the textures.
+        let mut tables: Vec<f32> = Vec::new();
+        let mut bases = Vec::with_capacity(s.shading().len());
+        for (b, basis) in s.shading().iter().enumerate() {
+            let mut block = BasisBlock {
+                n_theta: basis.dirs.n_theta as u32,
+                n_phi: basis.dirs.n_phi as u32,
+                r_o: basis.ranks.o as u32,
+                r_i: basis.ranks.i as u32,
+                n_widths: basis.n_widths() as u32,
+                n_dirs: basis.n_dirs() as u32,
+                ..Default::default()
+            };
+            block.u_o_at = tables.len() as u32;
+            tables.extend(&basis.u_o);
+            block.u_o_pole_at = tables.len() as u32;
+            tables.extend(&basis.u_o_pole);
+            block.refl_at = tables.len() as u32;
+            tables.extend(&basis.reflectances);
+            block.refl_pole_at = tables.len() as u32;
+            tables.extend(&basis.reflectances_pole);
+            block.widths_at = tables.len() as u32;
+            for k in 0..basis.n_widths() {
+                let w = s.split_width(b, k).ok_or_else(|| {
+                    GpuError::Unsupported(format!("shading basis {b} has no split width {k}"))
+                })?;
+                let cube = w.prefiltered.map_or(-1, |c| c as i32);
+                tables.push(f32::from_bits(cube as u32));
+                tables.extend(w.sh_factors);
+                tables.extend([0.0; 3]);
+            }
+            if basis.n_widths() > 8 || basis.ranks.o > 32 || basis.ranks.i > 32 {
+                return Err(GpuError::Unsupported(format!(
+                    "shading basis {b}: {} split widths, ranks {} x {} (at most 8 widths and rank 32)",
+                    basis.n_widths(),
+                    basis.ranks.o,
+                    basis.ranks.i
+                )));
+            }
+            bases.push(block);
+        }
+        let texture_info_at = index.len() as u32;
+        for t in 0..s.textures() {
+            let (w, h, texels) = s.texture(t).unwrap_or((0, 0, &[]));
+            index.extend([tables.len() as u32, w as u32, h as u32, 0]);
+            tables.extend(texels.iter().flatten());
+        }
+        let cube_size_at = index.len() as u32;
+        index.extend(s.prefiltered().iter().map(|c| c.size() as u32));
+        let tables_bytes = 4 * tables.len() as u64;
+        if tables.len() > u32::MAX as usize {
+            return Err(GpuError::Limit {
+                limit: "max_storage_buffer_binding_size",
+                what: "the shading tables and textures (32-bit offsets)".into(),
+                needed: tables_bytes,
+                max: u64::from(u32::MAX),
+            });
+        }
+        let geometry = storage_buffer(ctx, "the mesh's vertices", bytemuck::cast_slice(&geometry))?;
+        let index = storage_buffer(ctx, "the mesh's triangles", bytemuck::cast_slice(&index))?;
+        let records = {
+            check_binding(ctx, "the vertex records", 4 * records_len as u64)?;
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("prt-gpu records"),
+                size: (4 * records_len as u64).max(4),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        };
+        let mut vis_bytes = Vec::with_capacity(vis_len);
+        for g in 0..s.groups() {
+            vis_bytes.extend_from_slice(s.visibility(g));
+        }
+        let visibility = storage_buffer(ctx, "the visibility", &vis_bytes)?;
+        let nmat = s.materials().max(1);
+        let materials = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("prt-gpu materials"),
+            size: (nmat * std::mem::size_of::<MaterialBlock>()) as u64,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        if bases.is_empty() {
+            bases.push(BasisBlock::default());
+        }
+        let bases = storage_buffer(ctx, "the shading bases", bytemuck::cast_slice(&bases))?;
+        let tables = storage_buffer(
+            ctx,
+            "the shading tables and textures",
+            bytemuck::cast_slice(&tables),
+        )?;
+        let core_len: usize = s
+            .shading()
+            .iter()
+            .map(|b| b.ranks.o * b.ranks.i)
+            .max()
+            .unwrap_or(1)
+            * nmat;
+        let cores = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("prt-gpu cores"),
+            size: (4 * core_len as u64).max(4),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let env = s.environment();
+        let env_bytes = 12 * (env.width * env.height) as u64;
+        check_binding(ctx, "the environment map", env_bytes)?;
+        let environment = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("prt-gpu environment"),
+            size: env_bytes.max(4),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let cubes = Self::cube_texture(ctx, s)?;
+        let frame = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("prt-gpu frame"),
+            size: std::mem::size_of::<FrameBlock>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let layout = Self::bind_group_layout(device);
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("prt-gpu vertex"),
+            source: wgpu::ShaderSource::Wgsl(include_str!("shaders/vertex.wgsl").into()),
+        });
+        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("prt-gpu vertex"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = |vertex, fragment, compare, write| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(fragment),
+                layout: Some(&pl),
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some(vertex),
+                    compilation_options: Default::default(),
+                    buffers: &[],
+                },
+                primitive: wgpu::PrimitiveState {
+                    topology: wgpu::PrimitiveTopology::TriangleList,
+                    // Triangles are two-sided: the shader decides what the back shows.
+                    cull_mode: None,
+                    ..Default::default()
+                },
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: wgpu::TextureFormat::Depth32Float,
+                    depth_write_enabled: Some(write),
+                    depth_compare: Some(compare),
+                    stencil: Default::default(),
+                    bias: Default::default(),
+                }),
+                multisample: Default::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some(fragment),
+                    compilation_options: Default::default(),
+                    targets: &[Some(wgpu::ColorTargetState {
+                        format: wgpu::TextureFormat::Rgba32Float,
+                        blend: None,
+                        write_mask: wgpu::ColorWrites::ALL,
+                    })],
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        // Reversed depth: nearer is greater; of equally near triangles the first drawn (the
+        // lowest index, as on the CPU) stays.
+        let mesh_pipeline = pipeline(
+            "mesh_vertex",
+            "mesh_fragment",
+            wgpu::CompareFunction::Greater,
+            true,
+        );
+        let background_pipeline = pipeline(
+            "background_vertex",
+            "background_fragment",
+            wgpu::CompareFunction::GreaterEqual,
+            false,
+        );
+        let offsets = FrameBlock {
+            normals_at: 3 * nv as u32,
+            uvs_at: 6 * nv as u32,
+            materials_of_at,
+            vertex_info_at,
+            texture_info_at,
+            cube_size_at,
+            ..Default::default()
+        };
+        let bind_group = Self::bind_group(
+            device,
+            &layout,
+            [
+                &frame,
+                &geometry,
+                &index,
+                &records,
+                &visibility,
+                &materials,
+                &bases,
+                &tables,
+                &environment,
+                &cores,
+            ],
+            &cubes,
+        );
+        Ok(VertexGpu {
+            ctx: ctx.clone(),
+            layout,
+            mesh_pipeline,
+            background_pipeline,
+            frame,
+            geometry,
+            index,
+            records,
+            visibility,
+            materials,
+            bases,
+            tables,
+            environment,
+            cores,
+            cubes,
+            bind_group,
+            light_runs: 0,
+            material_runs: 0,
+            triangles: triangles.len() as u32,
+            bounds,
+            offsets,
+            target: None,
+            record_data: Vec::new(),
+            material_data: Vec::new(),
+            core_data: Vec::new(),
+            cube_data: Vec::new(),
+        })
+    }
+
+    fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+        let stages = wgpu::ShaderStages::VERTEX_FRAGMENT;
+        let mut entries = vec![wgpu::BindGroupLayoutEntry {
+            binding: 0,
+            visibility: stages,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        }];
+        for binding in 1..=9 {
+            entries.push(wgpu::BindGroupLayoutEntry {
+                binding,
+                visibility: stages,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Storage { read_only: true },
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            });
+        }
+        entries.push(wgpu::BindGroupLayoutEntry {
+            binding: 10,
+            visibility: wgpu::ShaderStages::FRAGMENT,
+            ty: wgpu::BindingType::Texture {
+                sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                view_dimension: wgpu::TextureViewDimension::D2Array,
+                multisampled: false,
+            },
+            count: None,
+        });
+        device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("prt-gpu vertex"),
+            entries: &entries,
+        })
+    }
+
+    fn bind_group(
+        device: &wgpu::Device,
+        layout: &wgpu::BindGroupLayout,
+        buffers: [&wgpu::Buffer; 10],
+        cubes: &wgpu::Texture,
+    ) -> wgpu::BindGroup {
+        let view = cubes.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        let mut entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .enumerate()
+            .map(|(i, b)| wgpu::BindGroupEntry {
+                binding: i as u32,
+                resource: b.as_entire_binding(),
+            })
+            .collect();
+        entries.push(wgpu::BindGroupEntry {
+            binding: 10,
+            resource: wgpu::BindingResource::TextureView(&view),
+        });
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("prt-gpu vertex"),
+            layout,
+            entries: &entries,
+        })
+    }
+
+    /// The prefiltered cubes' texture: one 2D array, six layers per cube, each cube in the
+    /// top-left corner of a layer as large as the largest cube.
+    ///
+    /// Why not `texture_cube` with a filtering sampler: the CPU runtime filters bilinearly in
+    /// f64 across face edges (`CubeMap::lookup_bilinear_face_st`); a sampler's filtering needs
+    /// a device feature for 32-bit float texels and interpolates with a few bits of weight
+    /// precision, so the shader loads the four texels and weighs them itself, as the CPU does.
+    fn cube_texture(ctx: &GpuContext, s: &VertexSurface) -> Result<wgpu::Texture, GpuError> {
+        let cubes = s.prefiltered();
+        let side = cubes.iter().map(|c| c.size()).max().unwrap_or(1).max(1) as u32;
+        let layers = (6 * cubes.len()).max(6) as u32;
+        let limits = ctx.limits();
+        if side > limits.max_texture_dimension_2d {
+            return Err(GpuError::Limit {
+                limit: "max_texture_dimension_2d",
+                what: "a prefiltered cube's side".into(),
+                needed: u64::from(side),
+                max: u64::from(limits.max_texture_dimension_2d),
+            });
+        }
+        if layers > limits.max_texture_array_layers {
+            return Err(GpuError::Limit {
+                limit: "max_texture_array_layers",
+                what: format!("{} prefiltered cubes", cubes.len()),
+                needed: u64::from(layers),
+                max: u64::from(limits.max_texture_array_layers),
+            });
+        }
+        Ok(ctx.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("prt-gpu prefiltered cubes"),
+            size: wgpu::Extent3d {
+                width: side,
+                height: side,
+                depth_or_array_layers: layers,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::Rgba32Float,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        }))
+    }
+
+    /// Uploads what changed since the last frame: the light's results (environment map,
+    /// prefiltered cubes) when the light stage ran, the records and materials when the
+    /// material stage ran.
+    fn upload_changes(&mut self, s: &VertexSurface) -> Result<(), GpuError> {
+        let queue = self.ctx.queue.clone();
+        let mut rebind = false;
+        if self.light_runs != s.light_runs() {
+            let env = s.environment();
+            let bytes = 12 * (env.width * env.height) as u64;
+            if bytes > self.environment.size() {
+                check_binding(&self.ctx, "the environment map", bytes)?;
+                self.environment = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("prt-gpu environment"),
+                    size: bytes,
+                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                });
+                rebind = true;
+            }
+            queue.write_buffer(
+                &self.environment,
+                0,
+                bytemuck::cast_slice(env.texels.as_slice()),
+            );
+            self.offsets.env_width = env.width as u32;
+            self.offsets.env_height = env.height as u32;
+            let side = self.cubes.width();
+            for (c, cube) in s.prefiltered().iter().enumerate() {
+                let n = cube.size();
+                if n as u32 > side || 6 * (c as u32 + 1) > self.cubes.depth_or_array_layers() {
+                    return Err(GpuError::Unsupported(
+                        "the prefiltered cubes changed size after opening".into(),
+                    ));
+                }
+                self.cube_data.clear();
+                self.cube_data
+                    .extend(cube.texels().iter().map(|t| [t[0], t[1], t[2], 0.0]));
+                queue.write_texture(
+                    wgpu::TexelCopyTextureInfo {
+                        texture: &self.cubes,
+                        mip_level: 0,
+                        origin: wgpu::Origin3d {
+                            x: 0,
+                            y: 0,
+                            z: 6 * c as u32,
+                        },
+                        aspect: wgpu::TextureAspect::All,
+                    },
+                    bytemuck::cast_slice(&self.cube_data),
+                    wgpu::TexelCopyBufferLayout {
+                        offset: 0,
+                        bytes_per_row: Some(16 * n as u32),
+                        rows_per_image: Some(n as u32),
+                    },
+                    wgpu::Extent3d {
+                        width: n as u32,
+                        height: n as u32,
+                        depth_or_array_layers: 6,
+                    },
+                );
+            }
+            self.light_runs = s.light_runs();
+        }
+        if self.material_runs != s.material_runs() {
+            self.record_data.clear();
+            for g in 0..s.groups() {
+                self.record_data.extend_from_slice(s.records(g).1);
+            }
+            if !self.record_data.is_empty() {
+                queue.write_buffer(&self.records, 0, bytemuck::cast_slice(&self.record_data));
+            }
+            self.material_data.clear();
+            self.core_data.clear();
+            for m in 0..s.materials() {
+                let Some(mat) = s.material(m) else { continue };
+                let mut block = MaterialBlock {
+                    kd: mat.kd,
+                    ks: mat.ks,
+                    group: mat.group.map_or(-1, |g| g as i32),
+                    texture: mat.texture.map_or(-1, |t| t as i32),
+                    basis: -1,
+                    ..Default::default()
+                };
+                if let Some(lobe) = mat.lobe {
+                    block.basis = lobe.basis as i32;
+                    block.core_at = self.core_data.len() as u32;
+                    self.core_data.extend_from_slice(lobe.core);
+                    block.taps_len = lobe.taps_len as u32;
+                    (block.tap0, block.tap0_w) = (lobe.taps[0].0 as u32, lobe.taps[0].1);
+                    (block.tap1, block.tap1_w) = (lobe.taps[1].0 as u32, lobe.taps[1].1);
+                }
+                self.material_data.push(block);
+            }
+            if !self.material_data.is_empty() {
+                queue.write_buffer(
+                    &self.materials,
+                    0,
+                    bytemuck::cast_slice(&self.material_data),
+                );
+            }
+            if !self.core_data.is_empty() {
+                queue.write_buffer(&self.cores, 0, bytemuck::cast_slice(&self.core_data));
+            }
+            self.material_runs = s.material_runs();
+        }
+        if rebind {
+            self.bind_group = Self::bind_group(
+                &self.ctx.device,
+                &self.layout,
+                [
+                    &self.frame,
+                    &self.geometry,
+                    &self.index,
+                    &self.records,
+                    &self.visibility,
+                    &self.materials,
+                    &self.bases,
+                    &self.tables,
+                    &self.environment,
+                    &self.cores,
+                ],
+                &self.cubes,
+            );
+        }
+        Ok(())
+    }
+
+    /// Makes the image and depth targets for `width` x `height` unless they exist.
+    fn ensure_target(&mut self, width: u32, height: u32) -> Result<(), GpuError> {
+        if self
+            .target
+            .as_ref()
+            .is_some_and(|t| t.width == width && t.height == height)
+        {
+            return Ok(());
+        }
+        let max = self.ctx.limits().max_texture_dimension_2d;
+        if width > max || height > max {
+            return Err(GpuError::Limit {
+                limit: "max_texture_dimension_2d",
+                what: format!("a {width}x{height} image"),
+                needed: u64::from(width.max(height)),
+                max: u64::from(max),
+            });
+        }
+        let device = &self.ctx.device;
+        let size = wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        };
+        let texture = |label, format, usage| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size,
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage,
+                view_formats: &[],
+            })
+        };
+        let color = texture(
+            "prt-gpu image",
+            wgpu::TextureFormat::Rgba32Float,
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        );
+        let depth = texture(
+            "prt-gpu depth",
+            wgpu::TextureFormat::Depth32Float,
+            wgpu::TextureUsages::RENDER_ATTACHMENT,
+        );
+        let row_pitch = (16 * width).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
+            * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        self.target = Some(Target {
+            width,
+            height,
+            color_view: color.create_view(&Default::default()),
+            color,
+            depth_view: depth.create_view(&Default::default()),
+            readback: Readback::new(&self.ctx, u64::from(row_pitch) * u64::from(height)),
+            row_pitch,
+        });
+        Ok(())
+    }
+
+    /// The uniform block of the current camera, size and environment rotation.
+    fn frame_block(&self, s: &VertexSurface) -> FrameBlock {
+        let cam = s.camera();
+        let (width, height) = s.size();
+        let v4 = |v: [f32; 3]| [v[0], v[1], v[2], 0.0];
+        // The farthest corner of the mesh's box from the eye bounds its camera-space depth.
+        let mut far = 0.0f32;
+        for k in 0..8 {
+            let corner: [f32; 3] = std::array::from_fn(|c| self.bounds[(k >> c) & 1][c]);
+            let d: f32 = (0..3)
+                .map(|c| (corner[c] - cam.position[c]).powi(2))
+                .sum::<f32>()
+                .sqrt();
+            if d.is_finite() {
+                far = far.max(d);
+            }
+        }
+        // R_y(-rotation), the CPU's `Environment::back`, row by row.
+        let m = rotation_y(-f64::from(s.environment_rotation()));
+        let back = m.map(|row| [row[0] as f32, row[1] as f32, row[2] as f32, 0.0]);
+        FrameBlock {
+            eye: v4(cam.position),
+            right: v4(cam.right),
+            up: v4(cam.up),
+            forward: v4(cam.forward),
+            back,
+            tan_half_fov: (f64::from(cam.yfov) * 0.5).tan() as f32,
+            aspect: (f64::from(width) / f64::from(height)) as f32,
+            near: (NEAR_PLANE_RELATIVE * far).max(f32::MIN_POSITIVE),
+            turned: u32::from(s.environment_rotation() != 0.0),
+            width: width as f32,
+            height: height as f32,
+            ..self.offsets
+        }
+    }
+
+    /// Draws the current view into `view` (an `Rgba32Float` texture view of the current size)
+    /// and, when `read_back`, copies it to the read-back buffer.
+    fn draw(
+        &mut self,
+        r: &VertexRelighter,
+        view: Option<&wgpu::TextureView>,
+        read_back: bool,
+    ) -> Result<(), GpuError> {
+        let Some(s) = r.surface() else {
+            return Err(GpuError::Unsupported(
+                "the light and material stages have not run".into(),
+            ));
+        };
+        self.upload_changes(&s)?;
+        let (width, height) = s.size();
+        self.ensure_target(width, height)?;
+        let block = self.frame_block(&s);
+        self.ctx
+            .queue
+            .write_buffer(&self.frame, 0, bytemuck::bytes_of(&block));
+        let Some(target) = &self.target else {
+            return Err(GpuError::Unsupported("no render target".into()));
+        };
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("prt-gpu view stage"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: view.unwrap_or(&target.color_view),
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &target.depth_view,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(0.0),
+                        store: wgpu::StoreOp::Discard,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_bind_group(0, &self.bind_group, &[]);
+            pass.set_pipeline(&self.mesh_pipeline);
+            pass.draw(0..3 * self.triangles, 0..1);
+            pass.set_pipeline(&self.background_pipeline);
+            pass.draw(0..3, 0..1);
+        }
+        if read_back {
+            encoder.copy_texture_to_buffer(
+                target.color.as_image_copy(),
+                wgpu::TexelCopyBufferInfo {
+                    buffer: &target.readback.buffer,
+                    layout: wgpu::TexelCopyBufferLayout {
+                        offset: 0,
+                        bytes_per_row: Some(target.row_pitch),
+                        rows_per_image: Some(height),
+                    },
+                },
+                wgpu::Extent3d {
+                    width,
+                    height,
+                    depth_or_array_layers: 1,
+                },
+            );
+        }
+        self.ctx.queue.submit([encoder.finish()]);
+        Ok(())
+    }
+
+    /// Renders the current view and reads it back into `out` (`3 * width * height` floats).
+    pub(crate) fn render_into(
+        &mut self,
+        r: &VertexRelighter,
+        out: &mut [f32],
+    ) -> Result<(), GpuError> {
+        self.draw(r, None, true)?;
+        let Some(target) = &self.target else {
+            return Err(GpuError::Unsupported("no render target".into()));
+        };
+        let (w, pitch) = (target.width as usize, target.row_pitch as usize);
+        target.readback.read(&self.ctx, |bytes| {
+            for (row, dst) in out.chunks_exact_mut(3 * w).enumerate() {
+                let src: &[f32] = bytemuck::cast_slice(&bytes[row * pitch..row * pitch + 16 * w]);
+                for (d, s) in dst.chunks_exact_mut(3).zip(src.chunks_exact(4)) {
+                    d.copy_from_slice(&s[..3]);
+                }
+            }
+        })?;
+        let _ = target.readback.size();
+        Ok(())
+    }
+
+    /// Renders the current view into the device's own target and waits for it (no
+    /// read-back): what the device's work alone costs, for the benchmark.
+    pub(crate) fn render_on_device(&mut self, r: &VertexRelighter) -> Result<(), GpuError> {
+        self.draw(r, None, false)?;
+        self.ctx.wait("rendering")
+    }
+
+    /// Renders the current view into a caller's texture view (`Rgba32Float`, the current
+    /// size, usable as a render attachment), without reading it back.
+    pub(crate) fn render_to_view(
+        &mut self,
+        r: &VertexRelighter,
+        view: &wgpu::TextureView,
+    ) -> Result<(), GpuError> {
+        let ctx = self.ctx.clone();
+        ctx.checked("rendering into the caller's texture", || {
+            self.draw(r, Some(view), false)
+        })
+    }
+}

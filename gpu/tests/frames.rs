@@ -1,0 +1,496 @@
+//! GPU frames against the CPU runtime's, on whatever adapter wgpu finds (Mesa's lavapipe in
+//! CI, installed by `.ci/run`): both kinds of bake, f32 and f16, full and compressed, with
+//! material edits, a turned and scaled environment, a moved camera and another image size.
+//! Every frame must be within 1e-3 relative L2 of the CPU frame (docs/gpu.md lists the
+//! measured figures and the shader bugs these tests were shown to catch).
+//!
+//! Without any Vulkan driver these tests fail, naming the fix, unless `PRT_SKIP_GPU=1`, which
+//! skips them with a line on stderr.
+
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+use prt_bake::accel::Accel;
+use prt_bake::basis::shading::default_shading_basis;
+use prt_bake::brdf::{BrdfParams, Family};
+use prt_bake::integrator::Integrator;
+use prt_bake::lights::LightSet;
+use prt_bake::pixel::{Precision, SlotPlan};
+use prt_bake::scene::{Environment, Scene, Texture};
+use prt_bake::testing::SceneBuilder;
+use prt_bake::vertex::{bake_vertex_with, write_vertex_file, VertexBakeOptions, VertexPlan};
+use prt_formats::clustered::CompressionSettings;
+use prt_gpu::{GpuContext, GpuError, GpuOptions, GpuRelighter};
+use prt_runtime::{Relighter, Variant};
+use prt_tests::{
+    bake_to_file, bases_for, relative_l2, small_basis, small_options, temp_path, test_scene,
+};
+
+/// The largest relative L2 distance of a GPU frame from the CPU frame: a tenth of the
+/// issue's 1e-3, three times the worst measured on lavapipe (3.3e-5: the GPU's f32 lookups
+/// where the CPU uses f64, fused multiply-adds, silhouette pixels), so that a shader term with
+/// a small share of the image (I1's SH bands: a wrong band moves it by 2e-4 to 7e-4) cannot be
+/// wrong unnoticed.
+const TOLERANCE: f64 = 1e-4;
+
+/// The device, or `None` (skipped, loudly) when `PRT_SKIP_GPU=1` and there is none.
+fn context(options: &GpuOptions) -> Option<GpuContext> {
+    match GpuContext::new(options) {
+        Ok(ctx) => {
+            eprintln!("GPU tests on {}", ctx.adapter_name());
+            Some(ctx)
+        }
+        Err(e) if std::env::var("PRT_SKIP_GPU").as_deref() == Ok("1") => {
+            eprintln!("SKIPPED: GPU frame tests (PRT_SKIP_GPU=1): {e}");
+            None
+        }
+        Err(e) => panic!(
+            "{e}\n(PRT_SKIP_GPU=1 skips the GPU tests on a machine without any Vulkan driver)"
+        ),
+    }
+}
+
+/// Renders the current settings on the CPU and on the GPU; returns their relative L2
+/// distance (asserting it is within [`TOLERANCE`], naming `what`).
+fn compare(g: &mut GpuRelighter, what: &str) -> f64 {
+    let cpu = g.relighter_mut().render().expect("CPU frame");
+    let gpu = g.render().expect("GPU frame");
+    assert_eq!((cpu.width, cpu.height), (gpu.width, gpu.height));
+    let d = relative_l2(&gpu.pixels, &cpu.pixels);
+    let energy: f64 = cpu
+        .pixels
+        .iter()
+        .flatten()
+        .map(|&v| f64::from(v).abs())
+        .sum();
+    eprintln!("{what}: relative L2 {d:.2e}");
+    assert!(
+        energy > 0.0,
+        "{what}: the CPU frame is black, nothing compared"
+    );
+    assert!(
+        d <= TOLERANCE,
+        "{what}: GPU frame {d:.3e} from the CPU frame (at most {TOLERANCE})"
+    );
+    d
+}
+
+fn set(r: &mut Relighter, edit: &str) {
+    let o = prt_formats::parse_override(edit).expect("edit syntax");
+    r.set_params(&o.material, &[o.value]).expect("edit applies");
+}
+
+/// A small per-pixel bake of the cross-crate test scene (three reflections, so T2 is read),
+/// with a low-rank variant.
+fn pixel_bake(name: &str, precision: Precision) -> PathBuf {
+    let scene = test_scene(Vec3::new(1.0, 0.9, 0.8), Vec3::new(0.1, 0.2, 0.3));
+    let bases = bases_for(&scene, 4);
+    let mut opts = small_options(40, 30, 4, 3, precision);
+    opts.compress_rank = Some(3);
+    bake_to_file(&scene, &bases, &opts, name).1
+}
+
+fn pixel_settings(ctx: &GpuContext, path: &Path, label: &str) {
+    let mut g = GpuRelighter::new(ctx, prt_runtime::open(path).expect("open")).expect("upload");
+    compare(&mut g, &format!("{label}: baked materials"));
+    for e in [
+        "shiny.kd=0.1,0.6,0.2",
+        "shiny.shininess=150",
+        "metal.alpha=0.6",
+        "metal.ks=0.9,0.5,0.2",
+        "block.kd=0.05,0.05,0.4",
+    ] {
+        set(g.relighter_mut(), e);
+    }
+    compare(&mut g, &format!("{label}: edited"));
+    if let Relighter::Pixel(p) = g.relighter_mut() {
+        p.set_variant(Variant::Compressed).expect("compressed");
+    }
+    compare(&mut g, &format!("{label}: compressed, edited"));
+    set(g.relighter_mut(), "shiny.kd=0.9,0.9,0.9");
+    compare(&mut g, &format!("{label}: compressed, edited again"));
+}
+
+#[test]
+fn per_pixel_frames_match_the_cpu() {
+    let Some(ctx) = context(&GpuOptions::default()) else {
+        return;
+    };
+    pixel_settings(
+        &ctx,
+        &pixel_bake("gpu-pixel-f32.prtbake", Precision::F32),
+        "pixel f32",
+    );
+    pixel_settings(
+        &ctx,
+        &pixel_bake("gpu-pixel-f16.prtbake", Precision::F16),
+        "pixel f16",
+    );
+}
+
+#[test]
+fn tensors_split_across_bindings_relight_the_same() {
+    // 8 KiB per binding: a group's row is at most 4.8 KB (40 x 30 pixels in f32), so the
+    // larger groups' rows go one or two per binding, dozens of chunks per group.
+    let Some(ctx) = context(&GpuOptions {
+        max_binding_bytes: Some(8 << 10),
+        ..Default::default()
+    }) else {
+        return;
+    };
+    for (precision, label) in [(Precision::F32, "f32"), (Precision::F16, "f16")] {
+        let path = pixel_bake(&format!("gpu-split-{label}.prtbake"), precision);
+        pixel_settings(
+            &ctx,
+            &path,
+            &format!("pixel {label}, split across bindings"),
+        );
+    }
+}
+
+#[test]
+fn a_bake_over_the_binding_limit_is_refused_naming_it_and_the_cpu_still_renders() {
+    let Some(ctx) = context(&GpuOptions {
+        max_binding_bytes: Some(64),
+        ..Default::default()
+    }) else {
+        return;
+    };
+    let path = pixel_bake("gpu-limit.prtbake", Precision::F32);
+    let err = GpuRelighter::new(&ctx, prt_runtime::open(&path).expect("open"))
+        .err()
+        .expect("a 64-byte binding cannot hold a row");
+    assert!(
+        matches!(
+            err,
+            GpuError::Limit {
+                limit: "max_storage_buffer_binding_size",
+                ..
+            }
+        ),
+        "{err}"
+    );
+    assert!(
+        err.to_string().contains("max_storage_buffer_binding_size"),
+        "{err}"
+    );
+    let image = prt_runtime::open(&path)
+        .expect("open")
+        .render()
+        .expect("the CPU path renders");
+    assert!(image.pixels.iter().flatten().any(|&v| v > 0.0));
+    let vpath = vertex_bake("gpu-limit-vertex.prtbake", None);
+    let err = GpuRelighter::new(&ctx, prt_runtime::open(&vpath).expect("open"))
+        .err()
+        .expect("64 bytes hold no vertex buffer");
+    assert!(
+        err.to_string().contains("max_storage_buffer_binding_size"),
+        "{err}"
+    );
+}
+
+/// A textured diffuse floor (6 x 6 grid, editable), an editable GGX ball above it and a fixed
+/// glossy back wall: every group sees the others, so I1 and I2 are not zero.
+fn vertex_scene() -> Scene {
+    let mut b = SceneBuilder::new();
+    let floor = b.material(
+        "floor",
+        BrdfParams::diffuse(Vec3::new(0.6, 0.5, 0.4)),
+        Vec3::ZERO,
+        true,
+    );
+    let ball = b.material(
+        "ball",
+        BrdfParams {
+            family: Family::Ggx,
+            kd: Vec3::splat(0.2),
+            ks: Vec3::splat(0.5),
+            param: 0.3,
+        },
+        Vec3::ZERO,
+        true,
+    );
+    let wall = b.material(
+        "wall",
+        BrdfParams {
+            family: Family::Ggx,
+            kd: Vec3::new(0.1, 0.3, 0.5),
+            ks: Vec3::splat(0.3),
+            param: 0.2,
+        },
+        Vec3::ZERO,
+        false,
+    );
+    let n = 6usize;
+    let at = |k: usize| -1.2 + 2.4 * k as f32 / (n - 1) as f32;
+    let mut positions = Vec::new();
+    let mut uvs = Vec::new();
+    for j in 0..n {
+        for i in 0..n {
+            positions.push(Vec3::new(at(i), 0.0, at(j)));
+            // Not symmetric in u and v, so a swapped coordinate shows.
+            uvs.push(glam::Vec2::new(
+                0.9 * i as f32 / (n - 1) as f32,
+                0.35 * j as f32 / (n - 1) as f32,
+            ));
+        }
+    }
+    let mut triangles = Vec::new();
+    for j in 0..n - 1 {
+        for i in 0..n - 1 {
+            let v = |i: usize, j: usize| (j * n + i) as u32;
+            triangles.push([v(i, j), v(i, j + 1), v(i + 1, j)]);
+            triangles.push([v(i + 1, j), v(i, j + 1), v(i + 1, j + 1)]);
+        }
+    }
+    b.mesh(
+        &positions,
+        &vec![Vec3::Y; positions.len()],
+        &triangles,
+        floor,
+    );
+    b.sphere(Vec3::new(0.1, 0.45, 0.05), 0.4, 2, ball);
+    b.quad(
+        [
+            Vec3::new(-1.2, 0.0, -1.0),
+            Vec3::new(1.2, 0.0, -1.0),
+            Vec3::new(1.2, 1.5, -1.0),
+            Vec3::new(-1.2, 1.5, -1.0),
+        ],
+        wall,
+    );
+    b.environment(Environment::Constant(Vec3::ONE));
+    let mut scene = b.build();
+    // The floor's texture: a checker of two colours with a gradient, 16 x 8 texels.
+    let (tw, th) = (16u32, 8u32);
+    let texels = (0..tw * th)
+        .map(|k| {
+            let (x, y) = (k % tw, k / tw);
+            let c = if (x / 2 + y / 2) % 2 == 0 {
+                Vec3::new(1.0, 0.3, 0.2)
+            } else {
+                Vec3::new(0.2, 0.5, 1.0)
+            };
+            c * (0.5 + x as f32 / tw as f32)
+        })
+        .collect();
+    scene.textures.push(Texture {
+        name: "checker".into(),
+        width: tw,
+        height: th,
+        texels,
+    });
+    scene.materials[floor as usize].base_color_texture = Some(0);
+    let nfloor = positions.len();
+    for (k, uv) in uvs.into_iter().enumerate().take(nfloor) {
+        scene.uvs[k] = uv;
+    }
+    scene
+}
+
+/// A lat-long map neither constant nor symmetric: a gradient, a band and a bright spot.
+fn environment() -> (usize, usize, Vec<f32>) {
+    let (w, h) = (96usize, 48usize);
+    let mut texels = Vec::with_capacity(3 * w * h);
+    for k in 0..w * h {
+        let (x, y) = ((k % w) as f32 / w as f32, (k / w) as f32 / h as f32);
+        let base = 0.5 + 0.8 * x + 0.6 * (1.0 - y) + 0.3 * (9.0 * x + 2.0 * y).sin();
+        let spot = if (0.6..0.7).contains(&x) && (0.25..0.35).contains(&y) {
+            20.0
+        } else {
+            0.0
+        };
+        texels.extend([
+            base + spot,
+            0.8 * base + 0.3 * spot,
+            1.2 * base + 0.1 * spot,
+        ]);
+    }
+    (w, h, texels)
+}
+
+/// Bakes [`vertex_scene`] per vertex (f16; `compression` None: dense T1 and T2).
+fn vertex_bake(name: &str, compression: Option<CompressionSettings>) -> PathBuf {
+    let scene = vertex_scene();
+    let bases = vec![small_basis(Family::Ggx, 4)];
+    let shading = vec![default_shading_basis(Family::Ggx).expect("GGX shading basis")];
+    let opts = VertexBakeOptions {
+        samples: 16,
+        secondary: 2,
+        reflections: 3,
+        precision: Precision::F16,
+        compression,
+        ..Default::default()
+    };
+    let counts: Vec<_> = bases.iter().map(|b| (b.family, b.num_bases)).collect();
+    let slots = SlotPlan::per_unit_radiance(&scene, &counts).expect("slot plan");
+    let accel = Accel::build(&scene);
+    let lights = LightSet::new(&scene);
+    let integ = Integrator::new(&scene, &accel, &lights, 3, 1, 1);
+    let plan = VertexPlan::new(&integ, slots, &opts, None).expect("vertex plan");
+    let bake = bake_vertex_with(&integ, &plan, &bases, &shading, &opts, None).expect("bake");
+    let path = temp_path(name);
+    write_vertex_file(&bake, &path).expect("write");
+    path
+}
+
+fn vertex_settings(ctx: &GpuContext, path: &Path, label: &str) {
+    let mut g = GpuRelighter::new(ctx, prt_runtime::open(path).expect("open")).expect("upload");
+    let camera = "eye=0.3,1.1,2.4 target=0,0.35,0 fov=45"
+        .parse::<prt_formats::view::CameraSpec>()
+        .expect("camera");
+    if let Relighter::Vertex(v) = g.relighter_mut() {
+        v.set_camera(camera.frame().expect("frame"))
+            .expect("camera");
+        v.set_size(64, 48).expect("size");
+    }
+    compare(&mut g, &format!("{label}: constant light, baked materials"));
+    let (w, h, texels) = environment();
+    if let Relighter::Vertex(v) = g.relighter_mut() {
+        v.set_environment_texels(w, h, &texels)
+            .expect("environment");
+    }
+    compare(&mut g, &format!("{label}: map"));
+    for e in [
+        // A bright floor and a near-mirror ball: the ball reflects the floor's light (I1).
+        "floor.kd=0.9,0.8,0.7",
+        "ball.kd=0.02,0.01,0.005",
+        "ball.ks=1,0.8,0.6",
+        "ball.alpha=0.12",
+    ] {
+        set(g.relighter_mut(), e);
+    }
+    compare(&mut g, &format!("{label}: map, edited"));
+    if let Relighter::Vertex(v) = g.relighter_mut() {
+        v.set_environment_rotation(70.0).expect("rotation");
+        v.set_environment_intensity(0.6).expect("intensity");
+    }
+    compare(
+        &mut g,
+        &format!("{label}: map turned 70 degrees, intensity 0.6"),
+    );
+    if let Relighter::Vertex(v) = g.relighter_mut() {
+        let moved = v.camera().orbited(-50.0);
+        v.set_camera(moved).expect("moved camera");
+    }
+    compare(&mut g, &format!("{label}: camera orbited"));
+    if let Relighter::Vertex(v) = g.relighter_mut() {
+        v.set_size(80, 40).expect("size");
+    }
+    compare(&mut g, &format!("{label}: 80x40"));
+}
+
+#[test]
+fn per_vertex_frames_match_the_cpu() {
+    let Some(ctx) = context(&GpuOptions::default()) else {
+        return;
+    };
+    vertex_settings(
+        &ctx,
+        &vertex_bake("gpu-vertex-dense.prtbake", None),
+        "vertex dense",
+    );
+    let compressed = CompressionSettings {
+        error_target: 0.1,
+        cluster_vertices: Some(40),
+        max_light_rank: 16,
+        max_element_rank: 16,
+        max_vertex_rank: 8,
+    };
+    vertex_settings(
+        &ctx,
+        &vertex_bake("gpu-vertex-compressed.prtbake", Some(compressed)),
+        "vertex compressed",
+    );
+}
+
+/// `render_to_view` draws into the caller's texture what `render_into` reads back: the same
+/// bits in every pixel's RGB, alpha 1 where the mesh or the environment was drawn.
+#[test]
+fn a_frame_rendered_into_a_callers_texture_is_the_read_back_frame() {
+    let Some(ctx) = context(&GpuOptions::default()) else {
+        return;
+    };
+    let path = vertex_bake("gpu-view-texture.prtbake", None);
+    let mut g = GpuRelighter::new(&ctx, prt_runtime::open(&path).expect("open")).expect("upload");
+    let (width, height) = (40u32, 24u32);
+    if let Relighter::Vertex(v) = g.relighter_mut() {
+        let camera = "eye=0.3,1.1,2.4 target=0,0.35,0 fov=45"
+            .parse::<prt_formats::view::CameraSpec>()
+            .expect("camera");
+        v.set_camera(camera.frame().expect("frame"))
+            .expect("camera");
+        v.set_size(width, height).expect("size");
+    }
+    let read_back = g.render().expect("read-back frame");
+
+    let device = ctx.device();
+    let extent = wgpu::Extent3d {
+        width,
+        height,
+        depth_or_array_layers: 1,
+    };
+    let texture = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("the caller's texture"),
+        size: extent,
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: wgpu::TextureFormat::Rgba32Float,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    });
+    g.render_to_view(&texture.create_view(&Default::default()))
+        .expect("render into the caller's texture");
+
+    // 16 bytes a texel; rows padded to wgpu's copy alignment.
+    let pitch = (16 * width).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
+        * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("test read-back"),
+        size: u64::from(pitch * height),
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = device.create_command_encoder(&Default::default());
+    encoder.copy_texture_to_buffer(
+        texture.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &buffer,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(pitch),
+                rows_per_image: Some(height),
+            },
+        },
+        extent,
+    );
+    ctx.queue().submit([encoder.finish()]);
+    buffer
+        .slice(..)
+        .map_async(wgpu::MapMode::Read, |r| r.expect("map"));
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .expect("device done");
+    let bytes = buffer
+        .slice(..)
+        .get_mapped_range()
+        .expect("mapped")
+        .to_vec();
+    let mut lit = 0usize;
+    for y in 0..height as usize {
+        for x in 0..width as usize {
+            let at = y * pitch as usize + 16 * x;
+            let texel: [f32; 4] = bytemuck::pod_read_unaligned(&bytes[at..at + 16]);
+            let expected = read_back.pixels[y * width as usize + x];
+            assert_eq!(
+                [texel[0], texel[1], texel[2]],
+                expected,
+                "pixel ({x}, {y}): the caller's texture against the read-back frame"
+            );
+            assert_eq!(texel[3], 1.0, "pixel ({x}, {y}): alpha");
+            lit += usize::from(expected.iter().any(|&v| v > 0.0));
+        }
+    }
+    assert!(lit > 0, "a black frame compares nothing");
+}
