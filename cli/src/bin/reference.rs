@@ -6,14 +6,12 @@ use std::process::ExitCode;
 
 use anyhow::{bail, Context, Result};
 use clap::Parser;
-use prt_bake::accel::Accel;
+use prt_bake::error::BakeError;
+use prt_bake::ground_truth::{run_reference, ReferenceError, ReferenceSettings};
 use prt_bake::progress::Progress;
-use prt_bake::reference::render_true;
-use prt_bake::run::{apply_override, load};
-use prt_bake::scene::envmap::load_latlong;
-use prt_bake::scene::Environment;
-use prt_bake::view::{camera_from_frame, check_eye_outside};
+use prt_bake::run::load;
 use prt_cli::Stderr;
+use prt_formats::envmap::load_latlong;
 use prt_formats::view::CameraSpec;
 use prt_formats::MaterialOverride;
 
@@ -77,56 +75,49 @@ fn main() -> ExitCode {
 
 fn run(args: Args) -> Result<()> {
     let progress = Stderr::new(args.json);
-    let (config, mut scene) = load(&args.config, &progress)?;
-    for o in &args.set {
-        apply_override(&mut scene, o)?;
-    }
-    if let Some(path) = &args.env {
-        let (env, report) = load_latlong(path, args.env_intensity)
-            .with_context(|| format!("--env {}", path.display()))?;
-        if report.clamped_texels > 0 {
-            progress.warn(&format!(
-                "--env {}: {} texel(s) with negative channels clamped to 0",
-                path.display(),
-                report.clamped_texels
-            ));
+    let (config, scene) = load(&args.config, &progress)?;
+    let environment = match &args.env {
+        Some(path) => {
+            let (map, report) = load_latlong(path, args.env_intensity)
+                .with_context(|| format!("--env {}", path.display()))?;
+            if report.clamped_texels > 0 {
+                progress.warn(&format!(
+                    "--env {}: {} texel(s) with negative channels clamped to 0",
+                    path.display(),
+                    report.clamped_texels
+                ));
+            }
+            Some(map)
         }
-        scene.environment = env;
-        scene.environment_rotation = 0.0;
-    }
-    if let Some(deg) = args.env_rotate {
-        if !(deg.is_finite() && (-360.0..=360.0).contains(&deg)) {
-            bail!("--env-rotate {deg}: give degrees in [-360, 360]");
+        None => None,
+    };
+    // --env-rotate turns the map given, or the config's on top of its own `rotation`.
+    let environment_rotation = match args.env_rotate {
+        Some(deg) if !(deg.is_finite() && (-360.0..=360.0).contains(&deg)) => {
+            bail!("--env-rotate {deg}: give degrees in [-360, 360]")
         }
-        if !matches!(scene.environment, Environment::LatLong { .. }) {
-            bail!(
-                "--env-rotate: the scene's environment is not a map (give --env FILE, or a \
-                 config with [environment] map)"
-            );
+        Some(deg) if environment.is_some() => Some(deg),
+        Some(deg) => Some(scene.environment_rotation + deg),
+        None => None,
+    };
+    let settings = ReferenceSettings {
+        spp: args.spp,
+        width: args.width,
+        height: args.height,
+        seed: args.seed,
+        overrides: args.set.clone(),
+        environment,
+        environment_rotation,
+        camera: args.camera.as_ref().map(CameraSpec::frame).transpose()?,
+    };
+    let names: Vec<String> = scene.materials.iter().map(|m| m.name.clone()).collect();
+    let r = run_reference(&config, scene, &settings, &progress).map_err(|e| match e {
+        BakeError::Reference(ReferenceError::RotationWithoutMap) => {
+            anyhow::Error::new(e).context("--env-rotate")
         }
-        scene.environment_rotation += deg;
-    }
-    let accel = Accel::build(&scene);
-    if let Some(spec) = &args.camera {
-        scene.camera = camera_from_frame(&spec.frame()?);
-    }
-    check_eye_outside(&scene, &accel, scene.camera.position)?;
-    let width = args.width.unwrap_or(config.width);
-    let height = args.height.unwrap_or(config.height);
-    let spp = args.spp.unwrap_or(config.spp);
-    if width == 0 || height == 0 || spp == 0 {
-        bail!("--width, --height and --spp must be at least 1");
-    }
-    let r = render_true(
-        &scene,
-        config.reflections as usize,
-        width,
-        height,
-        spp,
-        config.emission_oversampling,
-        args.seed.unwrap_or(config.seed),
-        Some(&progress),
-    );
+        e => e.into(),
+    })?;
+    let (width, height, spp) = (r.width, r.height, r.spp);
     let out = args.out.unwrap_or_else(|| {
         let stem = config
             .config_path
@@ -149,14 +140,13 @@ fn run(args: Args) -> Result<()> {
     prt_formats::write_png(&png, w, h, &rgb, args.exposure)?;
     let mean = r.mean();
     if args.json {
-        let materials: serde_json::Map<String, serde_json::Value> = scene
-            .materials
-            .iter()
+        let materials: serde_json::Map<String, serde_json::Value> = names
+            .into_iter()
             .zip(&r.material_means)
-            .filter_map(|(m, (v, n))| {
+            .filter_map(|(name, (v, n))| {
                 v.map(|v| {
                     (
-                        m.name.clone(),
+                        name,
                         serde_json::json!({"mean_radiance": v.to_array(), "samples": n}),
                     )
                 })
