@@ -49,7 +49,7 @@ impl MeanDifference {
     /// only the error is).
     pub fn z(&self) -> [f64; 4] {
         std::array::from_fn(|c| match (self.mean[c], self.standard_error[c]) {
-            (m, _) if m == 0.0 => 0.0,
+            (0.0, _) => 0.0,
             (m, se) => m / se,
         })
     }
