@@ -90,7 +90,9 @@ impl PyRelighter {
         let (width, height) = self.inner.size();
         let array = match out {
             Some(out) => arrays::output(&out, width, height)?,
-            None => arrays::new_image(py, width, height),
+            // SAFETY: render_into below writes every element, or fails and the array is
+            // dropped without reaching Python.
+            None => unsafe { arrays::new_image(py, width, height) },
         };
         {
             let mut view = array
