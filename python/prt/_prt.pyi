@@ -1,6 +1,7 @@
 """Type stubs of the native module prt._prt (re-exported by the prt package)."""
 
 import os
+import pathlib
 from typing import Callable, Dict, Literal, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -77,7 +78,8 @@ class Relighter:
     @property
     def kind(self) -> Literal["pixel", "vertex"]: ...
     @property
-    def path(self) -> str: ...
+    def path(self) -> "pathlib.Path":
+        """The bake file."""
     @property
     def materials(self) -> list[Material]:
         """Every material, in the bake's order, with its current parameters and ranges."""
