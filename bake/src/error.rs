@@ -61,9 +61,6 @@ pub enum BakeError {
     /// Planning, baking or writing the per-vertex tensors failed.
     #[error(transparent)]
     Vertex(#[from] VertexError),
-    /// A reference render's settings were refused.
-    #[error(transparent)]
-    Reference(#[from] crate::ground_truth::ReferenceError),
     /// A `--set` edit names an unknown material or is malformed.
     #[error(transparent)]
     Override(#[from] prt_formats::OverrideError),

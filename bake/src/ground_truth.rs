@@ -39,10 +39,15 @@ pub struct ReferenceSettings {
     pub camera: Option<CameraFrame>,
 }
 
-/// Why a reference render's settings were refused.
+/// Why a reference render failed: its settings were refused, or the config's scene or a
+/// material edit was (a [`BakeError`]). Its own type, not a [`BakeError`] variant, so that
+/// `error.rs` need not know this module (which calls `run.rs`, which returns `BakeError`).
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum ReferenceError {
+    /// A material edit, or the scene, was refused.
+    #[error(transparent)]
+    Bake(Box<BakeError>),
     /// The image size or the sample count is zero.
     #[error("the reference needs a width, height and spp of at least 1 (got {width}x{height} at {spp} spp)")]
     Empty {
@@ -67,6 +72,13 @@ pub enum ReferenceError {
     View(#[from] ViewError),
 }
 
+impl From<BakeError> for ReferenceError {
+    fn from(e: BakeError) -> Self {
+        // Boxed: a `BakeError` is large, and this error is otherwise small.
+        ReferenceError::Bake(Box::new(e))
+    }
+}
+
 /// Applies `s`'s edits to `scene` (loaded from `config`) and renders its camera view with the
 /// true BRDFs; stages go to `progress`. Every setting is checked before the render starts.
 pub fn run_reference(
@@ -74,12 +86,12 @@ pub fn run_reference(
     mut scene: Scene,
     s: &ReferenceSettings,
     progress: &dyn Progress,
-) -> Result<Render, BakeError> {
+) -> Result<Render, ReferenceError> {
     let width = s.width.unwrap_or(config.width);
     let height = s.height.unwrap_or(config.height);
     let spp = s.spp.unwrap_or(config.spp);
     if width == 0 || height == 0 || spp == 0 {
-        return Err(ReferenceError::Empty { width, height, spp }.into());
+        return Err(ReferenceError::Empty { width, height, spp });
     }
     for o in &s.overrides {
         apply_override(&mut scene, o)?;
@@ -94,10 +106,10 @@ pub fn run_reference(
     }
     if let Some(deg) = s.environment_rotation {
         if !deg.is_finite() {
-            return Err(ReferenceError::Rotation(deg).into());
+            return Err(ReferenceError::Rotation(deg));
         }
         if !matches!(scene.environment, Environment::LatLong { .. }) {
-            return Err(ReferenceError::RotationWithoutMap.into());
+            return Err(ReferenceError::RotationWithoutMap);
         }
         scene.environment_rotation = deg;
     }
@@ -105,7 +117,7 @@ pub fn run_reference(
         scene.camera = camera_from_frame(frame);
     }
     let accel = Accel::build(&scene);
-    check_eye_outside(&scene, &accel, scene.camera.position).map_err(ReferenceError::from)?;
+    check_eye_outside(&scene, &accel, scene.camera.position)?;
     Ok(render_true(
         &scene,
         config.reflections as usize,

@@ -8,6 +8,7 @@ use std::error::Error;
 use prt_bake::config::input::InputError;
 use prt_bake::config::ConfigError;
 use prt_bake::error::BakeError;
+use prt_bake::ground_truth::ReferenceError;
 use prt_formats::describe_error;
 use prt_runtime::RuntimeError;
 use pyo3::PyErr;
@@ -103,13 +104,20 @@ pub fn bake(e: BakeError) -> PyErr {
         | BakeError::Basis { .. }
         | BakeError::BadErrorTarget(_)
         | BakeError::MemoryLimit { .. } => Kind::Config,
-        BakeError::Override(_) | BakeError::WrongParam { .. } | BakeError::Reference(_) => {
-            Kind::Parameter
-        }
+        BakeError::Override(_) | BakeError::WrongParam { .. } => Kind::Parameter,
         _ if io_cause(&e) => Kind::File,
         _ => Kind::Other,
     };
     raise(kind, &e)
+}
+
+/// A reference render's error as the exception it is raised as: the scene's or an edit's as
+/// [`bake`] raises it, a refused setting as a parameter error.
+pub fn reference(e: ReferenceError) -> PyErr {
+    match e {
+        ReferenceError::Bake(e) => bake(*e),
+        e => raise(Kind::Parameter, &e),
+    }
 }
 
 /// A panic's payload as an error (a panic never crosses into Python).

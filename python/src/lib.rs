@@ -8,6 +8,7 @@ mod bake;
 mod camera;
 mod errors;
 mod materials;
+mod open;
 mod progress;
 mod reference;
 mod relighter;
@@ -27,11 +28,13 @@ mod _prt {
     #[pymodule_export]
     use super::materials::{Material, Param};
     #[pymodule_export]
+    use super::open::open;
+    #[pymodule_export]
     use super::progress::ProgressEvent;
     #[pymodule_export]
     use super::reference::{compare, reference, write_image, Comparison};
     #[pymodule_export]
-    use super::relighter::{open, PyPixelRelighter, PyRelighter};
+    use super::relighter::{PyPixelRelighter, PyRelighter};
     #[pymodule_export]
     use super::vertex::PyVertexRelighter;
 }

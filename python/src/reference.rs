@@ -173,7 +173,7 @@ pub fn reference<'py>(
     }
     let (width, height, pixels) = progress::run(py, progress, |reporter| {
         let (config, scene) = load(&config, reporter).map_err(errors::bake)?;
-        let render = run_reference(&config, scene, &s, reporter).map_err(errors::bake)?;
+        let render = run_reference(&config, scene, &s, reporter).map_err(errors::reference)?;
         let flat: Vec<f32> = render.pixels.iter().flat_map(|p| p.to_array()).collect();
         PyResult::Ok((render.width as usize, render.height as usize, flat))
     })??;

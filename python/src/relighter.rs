@@ -1,19 +1,18 @@
-//! `prt.open` and the relighters: `Relighter`, what both kinds of bake share (materials,
-//! size, render), and `PixelRelighter`, a per-pixel bake (its variant); `VertexRelighter` is
-//! in `vertex.rs`. A render writes the numpy array's own memory with the interpreter's lock
+//! The relighters: `Relighter`, what both kinds of bake share (materials, size, render), and
+//! `PixelRelighter`, a per-pixel bake (its variant); `VertexRelighter` is in `vertex.rs`,
+//! `prt.open` in `open.rs`. A render writes the numpy array's own memory with the interpreter's lock
 //! released, so Python threads rendering different relighters run at once.
 
 use std::path::PathBuf;
 
 use numpy::{PyArray3, PyArrayMethods};
-use prt_runtime::{Relighter, RuntimeError, Variant};
+use prt_runtime::{Relighter, Variant};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::arrays;
 use crate::errors::{self, message, Kind};
 use crate::materials::{self, Material};
-use crate::vertex::PyVertexRelighter;
 
 /// Runs `f` with the interpreter's lock released (other Python threads run meanwhile); a
 /// panic in it is raised as an error instead of crossing into Python.
@@ -169,27 +168,4 @@ impl PyPixelRelighter {
             .set_variant(v)
             .map_err(errors::runtime)
     }
-}
-
-/// Opens a bake file of either kind (checksums verified) and returns a `PixelRelighter` or a
-/// `VertexRelighter`, with the materials at their baked parameters (and, per vertex, the
-/// baked environment and camera at 512x512). Raises `prt.FileError` for a missing,
-/// unreadable or corrupt file, or one that is no bake.
-#[pyfunction]
-pub fn open(py: Python<'_>, path: PathBuf) -> PyResult<Py<PyAny>> {
-    let opened: Result<Relighter, RuntimeError> = detached(py, || prt_runtime::open(&path))?;
-    let inner = opened.map_err(errors::runtime)?;
-    let base = PyRelighter { inner, path };
-    let object = match &base.inner {
-        Relighter::Pixel(_) => {
-            let init = PyClassInitializer::from(base).add_subclass(PyPixelRelighter);
-            Bound::new(py, init)?.into_any()
-        }
-        Relighter::Vertex(v) => {
-            let vertex = PyVertexRelighter::new(v);
-            let init = PyClassInitializer::from(base).add_subclass(vertex);
-            Bound::new(py, init)?.into_any()
-        }
-    };
-    Ok(object.unbind())
 }

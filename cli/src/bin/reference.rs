@@ -6,7 +6,6 @@ use std::process::ExitCode;
 
 use anyhow::{bail, Context, Result};
 use clap::Parser;
-use prt_bake::error::BakeError;
 use prt_bake::ground_truth::{run_reference, ReferenceError, ReferenceSettings};
 use prt_bake::progress::Progress;
 use prt_bake::run::load;
@@ -112,9 +111,7 @@ fn run(args: Args) -> Result<()> {
     };
     let names: Vec<String> = scene.materials.iter().map(|m| m.name.clone()).collect();
     let r = run_reference(&config, scene, &settings, &progress).map_err(|e| match e {
-        BakeError::Reference(ReferenceError::RotationWithoutMap) => {
-            anyhow::Error::new(e).context("--env-rotate")
-        }
+        ReferenceError::RotationWithoutMap => anyhow::Error::new(e).context("--env-rotate"),
         e => e.into(),
     })?;
     let (width, height, spp) = (r.width, r.height, r.spp);
