@@ -8,6 +8,7 @@ pub mod brdf;
 pub mod config;
 pub mod error;
 pub mod film_emission;
+pub mod ground_truth;
 pub mod integrator;
 pub mod lights;
 pub mod metrics;

@@ -32,9 +32,70 @@ pub fn rmse(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
     (s / n).sqrt()
 }
 
+/// The mean of `a - b` over the pixels and its standard error, per channel and for the
+/// pixels' channel averages (the last entry): how far apart two images are on average, in
+/// units of the noise their pixel-to-pixel spread shows.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeanDifference {
+    /// Mean of `a - b` per channel (R, G, B) and of the channel average.
+    pub mean: [f64; 4],
+    /// Standard error of each mean: the sample standard deviation of the per-pixel
+    /// differences over the square root of the pixel count.
+    pub standard_error: [f64; 4],
+}
+
+impl MeanDifference {
+    /// Each mean in standard errors (`mean / standard_error`; 0 when both are 0, infinite when
+    /// only the error is).
+    pub fn z(&self) -> [f64; 4] {
+        std::array::from_fn(|c| match (self.mean[c], self.standard_error[c]) {
+            (0.0, _) => 0.0,
+            (m, se) => m / se,
+        })
+    }
+}
+
+/// The mean difference of `a` and `b` and its standard error. The pixels' differences are
+/// taken as independent samples, which they are for Monte Carlo renders whose pixels own their
+/// random streams (a relit bake and the reference tracer); a difference with structure (an
+/// edge moved, a bias in one material) spreads them too and so shows as fewer standard errors
+/// than a uniform bias of the same mean. NaN when the images differ in size or have fewer
+/// than two pixels.
+pub fn mean_difference(a: &[[f32; 3]], b: &[[f32; 3]]) -> MeanDifference {
+    if a.len() != b.len() || a.len() < 2 {
+        return MeanDifference {
+            mean: [f64::NAN; 4],
+            standard_error: [f64::NAN; 4],
+        };
+    }
+    let n = a.len() as f64;
+    let diff = |x: &[f32; 3], y: &[f32; 3]| -> [f64; 4] {
+        let d: [f64; 3] = std::array::from_fn(|c| f64::from(x[c]) - f64::from(y[c]));
+        [d[0], d[1], d[2], (d[0] + d[1] + d[2]) / 3.0]
+    };
+    let mut mean = [0.0f64; 4];
+    for (x, y) in a.iter().zip(b) {
+        for (m, d) in mean.iter_mut().zip(diff(x, y)) {
+            *m += d;
+        }
+    }
+    mean = mean.map(|m| m / n);
+    // Two passes: the spread around the mean, not sum(d^2) - n mean^2, which cancels.
+    let mut squares = [0.0f64; 4];
+    for (x, y) in a.iter().zip(b) {
+        for ((s, d), m) in squares.iter_mut().zip(diff(x, y)).zip(mean) {
+            *s += (d - m) * (d - m);
+        }
+    }
+    MeanDifference {
+        mean,
+        standard_error: squares.map(|s| (s / (n - 1.0) / n).sqrt()),
+    }
+}
+
 #[cfg(test)]
 mod tests {
-    use super::{relative_l2, rmse};
+    use super::{mean_difference, relative_l2, rmse};
 
     #[test]
     fn error_measures() {
@@ -46,5 +107,27 @@ mod tests {
         // A truncated or empty image is no small error.
         assert!(relative_l2(&a[..1], &b).is_nan() && rmse(&a[..1], &b).is_nan());
         assert!(relative_l2(&[], &[]).is_nan() && rmse(&[], &[]).is_nan());
+    }
+
+    #[test]
+    fn mean_difference_in_standard_errors() {
+        // Differences 1, 3 (R), 0, 0 (G), -2, -2 (B): means 2, 0, -2; channel averages -1/3
+        // and 1/3, mean 0.
+        let b = [[1.0f32, 1.0, 3.0], [1.0, 1.0, 3.0]];
+        let a = [[2.0f32, 1.0, 1.0], [4.0, 1.0, 1.0]];
+        let m = mean_difference(&a, &b);
+        assert_eq!(m.mean[..3], [2.0, 0.0, -2.0]);
+        assert!(m.mean[3].abs() < 1e-15);
+        // Sample standard deviation of (1, 3) is sqrt(2); over sqrt(2) pixels: 1.
+        assert!((m.standard_error[0] - 1.0).abs() < 1e-12);
+        assert_eq!(m.standard_error[1..3], [0.0, 0.0]);
+        assert!((m.standard_error[3] - 1.0 / 3.0).abs() < 1e-12);
+        let z = m.z();
+        assert!((z[0] - 2.0).abs() < 1e-12);
+        assert_eq!(z[1], 0.0);
+        assert_eq!(z[2], f64::NEG_INFINITY);
+        // A truncated or single-pixel image is no measurement.
+        assert!(mean_difference(&a[..1], &b).mean[0].is_nan());
+        assert!(mean_difference(&a[..1], &b[..1]).standard_error[0].is_nan());
     }
 }

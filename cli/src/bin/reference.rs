@@ -6,20 +6,16 @@ use std::process::ExitCode;
 
 use anyhow::{bail, Context, Result};
 use clap::Parser;
-use prt_bake::accel::Accel;
+use prt_bake::ground_truth::{run_reference, ReferenceError, ReferenceSettings};
 use prt_bake::progress::Progress;
-use prt_bake::reference::render_true;
-use prt_bake::run::{apply_override, load};
-use prt_bake::scene::envmap::load_latlong;
-use prt_bake::scene::Environment;
-use prt_bake::view::{camera_from_frame, check_eye_outside};
+use prt_bake::run::load;
 use prt_cli::Stderr;
+use prt_formats::envmap::load_latlong;
 use prt_formats::view::CameraSpec;
 use prt_formats::MaterialOverride;
 
 #[derive(Parser, Debug)]
 #[command(
-    name = "reference",
     version,
     about = "Reference path tracer: the ground truth a bake is checked against"
 )]
@@ -72,82 +68,53 @@ struct Args {
     json: bool,
 }
 
-/// Words users type for this tool's flags (clap suggests only flags spelt alike).
-const SYNONYMS: &[(&str, &str)] = &[
-    ("sample", "spp"),
-    ("samples", "spp"),
-    ("material", "set"),
-    ("materials", "set"),
-    ("output", "out"),
-    ("environment", "env"),
-];
-
 fn main() -> ExitCode {
-    prt_cli::exit_code(run(prt_cli::parse_args(SYNONYMS)))
+    prt_cli::exit_code(run(Args::parse()))
 }
 
 fn run(args: Args) -> Result<()> {
     let progress = Stderr::new(args.json);
-    let (config, mut scene) = load(&args.config, &progress)?;
-    for o in &args.set {
-        apply_override(&mut scene, o)?;
-    }
-    for m in &scene.materials {
-        if args.set.iter().any(|o| o.material == m.name) {
-            let (kd, ks) = (m.brdf.kd.to_array(), m.brdf.ks.to_array());
-            if let Some(w) =
-                prt_formats::family::reflectance_warning(&m.name, m.brdf.family, kd, ks)
-            {
-                progress.warn(&w);
+    let (config, scene) = load(&args.config, &progress)?;
+    let environment = match &args.env {
+        Some(path) => {
+            let (map, report) = load_latlong(path, args.env_intensity)
+                .with_context(|| format!("--env {}", path.display()))?;
+            if report.clamped_texels > 0 {
+                progress.warn(&format!(
+                    "--env {}: {} texel(s) with negative channels clamped to 0",
+                    path.display(),
+                    report.clamped_texels
+                ));
             }
+            Some(map)
         }
-    }
-    if let Some(path) = &args.env {
-        let (env, report) = load_latlong(path, args.env_intensity)
-            .with_context(|| format!("--env {}", path.display()))?;
-        if report.clamped_texels > 0 {
-            progress.warn(&format!(
-                "--env {}: {} texel(s) with negative channels clamped to 0",
-                path.display(),
-                report.clamped_texels
-            ));
+        None => None,
+    };
+    // --env-rotate turns the map given, or the config's on top of its own `rotation`.
+    let environment_rotation = match args.env_rotate {
+        Some(deg) if !(deg.is_finite() && (-360.0..=360.0).contains(&deg)) => {
+            bail!("--env-rotate {deg}: give degrees in [-360, 360]")
         }
-        scene.environment = env;
-        scene.environment_rotation = 0.0;
-    }
-    if let Some(deg) = args.env_rotate {
-        if !(deg.is_finite() && (-360.0..=360.0).contains(&deg)) {
-            bail!("--env-rotate {deg}: give degrees in [-360, 360]");
-        }
-        if !matches!(scene.environment, Environment::LatLong { .. }) {
-            bail!(
-                "--env-rotate: the scene's environment is not a map (give --env FILE, or a \
-                 config with [environment] map)"
-            );
-        }
-        scene.environment_rotation += deg;
-    }
-    let accel = Accel::build(&scene);
-    if let Some(spec) = &args.camera {
-        scene.camera = camera_from_frame(&spec.frame()?);
-    }
-    check_eye_outside(&scene, &accel, scene.camera.position)?;
-    let width = args.width.unwrap_or(config.width);
-    let height = args.height.unwrap_or(config.height);
-    let spp = args.spp.unwrap_or(config.spp);
-    if width == 0 || height == 0 || spp == 0 {
-        bail!("--width, --height and --spp must be at least 1");
-    }
-    let r = render_true(
-        &scene,
-        config.reflections as usize,
-        width,
-        height,
-        spp,
-        config.emission_oversampling,
-        args.seed.unwrap_or(config.seed),
-        Some(&progress),
-    );
+        Some(deg) if environment.is_some() => Some(deg),
+        Some(deg) => Some(scene.environment_rotation + deg),
+        None => None,
+    };
+    let settings = ReferenceSettings {
+        spp: args.spp,
+        width: args.width,
+        height: args.height,
+        seed: args.seed,
+        overrides: args.set.clone(),
+        environment,
+        environment_rotation,
+        camera: args.camera.as_ref().map(CameraSpec::frame).transpose()?,
+    };
+    let names: Vec<String> = scene.materials.iter().map(|m| m.name.clone()).collect();
+    let r = run_reference(&config, scene, &settings, &progress).map_err(|e| match e {
+        ReferenceError::RotationWithoutMap => anyhow::Error::new(e).context("--env-rotate"),
+        e => e.into(),
+    })?;
+    let (width, height, spp) = (r.width, r.height, r.spp);
     let out = args.out.unwrap_or_else(|| {
         let stem = config
             .config_path
@@ -166,19 +133,17 @@ fn run(args: Args) -> Result<()> {
     let (w, h) = (width as usize, height as usize);
     let exr = out.with_extension("exr");
     let png = out.with_extension("png");
-    let existed = exr.exists() || png.exists();
     prt_formats::write_exr(&exr, w, h, &rgb)?;
     prt_formats::write_png(&png, w, h, &rgb, args.exposure)?;
     let mean = r.mean();
     if args.json {
-        let materials: serde_json::Map<String, serde_json::Value> = scene
-            .materials
-            .iter()
+        let materials: serde_json::Map<String, serde_json::Value> = names
+            .into_iter()
             .zip(&r.material_means)
-            .filter_map(|(m, (v, n))| {
+            .filter_map(|(name, (v, n))| {
                 v.map(|v| {
                     (
-                        m.name.clone(),
+                        name,
                         serde_json::json!({"mean_radiance": v.to_array(), "samples": n}),
                     )
                 })
@@ -205,12 +170,11 @@ fn run(args: Args) -> Result<()> {
         println!("{json}");
     } else {
         eprintln!(
-            "rendered {width}x{height} at {spp} spp in {:.2} s ({:.2} Mrays/s); wrote {} and {}{}",
+            "rendered {width}x{height} at {spp} spp in {:.2} s ({:.2} Mrays/s); wrote {} and {}",
             r.seconds,
             r.rays as f64 / r.seconds.max(1e-9) / 1e6,
             exr.display(),
-            png.display(),
-            prt_cli::replaced(existed)
+            png.display()
         );
     }
     Ok(())
