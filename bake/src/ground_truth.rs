@@ -100,7 +100,8 @@ pub fn run_reference(
     for m in &scene.materials {
         if s.overrides.iter().any(|o| o.material == m.name) {
             let (kd, ks) = (m.brdf.kd.to_array(), m.brdf.ks.to_array());
-            if let Some(w) = prt_formats::family::reflectance_warning(&m.name, m.brdf.family, kd, ks)
+            if let Some(w) =
+                prt_formats::family::reflectance_warning(&m.name, m.brdf.family, kd, ks)
             {
                 progress.warn(&w);
             }

@@ -18,7 +18,7 @@ use prt_bake::lights::LightSet;
 use prt_bake::pixel::{Precision, SlotPlan};
 use prt_bake::scene::{Environment, Scene, Texture};
 use prt_bake::testing::SceneBuilder;
-use prt_bake::vertex::{bake_vertex_with, write_vertex_file, VertexBakeOptions, VertexPlan};
+use prt_bake::vertex::{bake_vertex_with, prepare_scene, VertexBakeOptions, VertexPlan};
 use prt_formats::clustered::CompressionSettings;
 use prt_gpu::{GpuContext, GpuError, GpuOptions, GpuRelighter};
 use prt_runtime::{Relighter, Variant};
@@ -311,7 +311,9 @@ fn environment() -> (usize, usize, Vec<f32>) {
 
 /// Bakes [`vertex_scene`] per vertex (f16; `compression` None: dense T1 and T2).
 fn vertex_bake(name: &str, compression: Option<CompressionSettings>) -> PathBuf {
-    let scene = vertex_scene();
+    // Welded and ordered by unit, as every per-vertex bake is.
+    let prepared = prepare_scene(&vertex_scene());
+    let scene = prepared.scene;
     let bases = vec![small_basis(Family::Ggx, 4)];
     let shading = vec![default_shading_basis(Family::Ggx).expect("GGX shading basis")];
     let opts = VertexBakeOptions {
@@ -327,10 +329,9 @@ fn vertex_bake(name: &str, compression: Option<CompressionSettings>) -> PathBuf 
     let accel = Accel::build(&scene);
     let lights = LightSet::new(&scene);
     let integ = Integrator::new(&scene, &accel, &lights, 3, 1, 1);
-    let plan = VertexPlan::new(&integ, slots, &opts, None).expect("vertex plan");
-    let bake = bake_vertex_with(&integ, &plan, &bases, &shading, &opts, None).expect("bake");
+    let plan = VertexPlan::new(&integ, slots, &opts, prepared.units, None).expect("vertex plan");
     let path = temp_path(name);
-    write_vertex_file(&bake, &path).expect("write");
+    bake_vertex_with(&integ, &plan, &bases, &shading, &opts, &path, None).expect("bake");
     path
 }
 

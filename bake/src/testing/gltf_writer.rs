@@ -79,7 +79,7 @@ impl GltfWriter {
         let mut views: Vec<Value> = Vec::new();
         let mut accessors: Vec<Value> = Vec::new();
         let mut push = |bytes: Vec<u8>, accessor: Value, target: u32| -> usize {
-            while bin.len() % 4 != 0 {
+            while !bin.len().is_multiple_of(4) {
                 bin.push(0);
             }
             views.push(json!({"buffer": 0, "byteOffset": bin.len(),

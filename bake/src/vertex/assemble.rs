@@ -23,7 +23,7 @@ use prt_formats::vertex::{
 };
 use prt_formats::{Dtype, FormatError};
 
-use crate::shard::{CommonTensor, PieceSource, ShardError};
+use crate::shard::{CommonTensor, PieceSource};
 
 use super::compress::ClusterFigures;
 use super::error::VertexError;
@@ -95,7 +95,7 @@ pub fn assemble_vertex_file(
     for (u, &(g, n)) in common.units.iter().enumerate() {
         let piece = pieces.piece(u)?;
         let s: UnitSummary = serde_json::from_value(piece.summary().clone())
-            .map_err(|e| ShardError::from(piece.bad(format!("its summary: {e}"))))?;
+            .map_err(|e| piece.bad(format!("its summary: {e}")))?;
         if s.group != g || s.vertices != n || s.unit != u {
             return Err(piece
                 .bad(format!(
@@ -318,7 +318,7 @@ pub fn assemble_vertex_file(
         );
 
         match &gm.compression {
-            Some(c) => add_compressed(&mut w, &meta, g, gm, gs, c, pieces, precision),
+            Some(c) => add_compressed(&mut w, &meta, g, gs, c, pieces),
             None => {
                 for k in 0..2usize {
                     if k == 1 && meta.reflections < 3 {
@@ -385,12 +385,12 @@ fn add_compressed<'a>(
     w: &mut StreamedFile<'a>,
     meta: &VertexBakeMeta,
     g: usize,
-    gm: &prt_formats::vertex::VertexGroupMeta,
     gs: &GroupSums,
     c: &GroupCompression,
     pieces: &'a dyn PieceSource,
-    precision: Precision,
 ) {
+    let gm = &meta.groups[g];
+    let precision = meta.precision;
     let vb = super::write::value_bytes(precision);
     let dtype = match precision {
         Precision::F32 => Dtype::F32,

@@ -102,7 +102,12 @@ fn ratio(part: f64, whole: f64) -> f64 {
 }
 
 /// The budget of discarded energy of a block: all of its noise and `target^2` of its signal.
+/// A target of 0 discards nothing, noise included: every rank the caps allow (the exactness
+/// tests' setting, and what `compress_error = 0` promises).
 pub(crate) fn budget(target: f32, sq_norm: f64, sq_noise: f64) -> f64 {
+    if target <= 0.0 {
+        return 0.0;
+    }
     let noise = sq_noise.clamp(0.0, sq_norm);
     f64::from(target).powi(2) * (sq_norm - noise) + noise
 }
@@ -454,6 +459,7 @@ mod tests {
         assert!(aware.figures.error() > 0.3 && aware.figures.beyond_noise() <= 0.05 + 1e-9);
         assert!((aware.figures.noise() - (noise_sq / sq(&t)).sqrt()).abs() < 1e-6);
         assert_eq!(budget(0.1, 2.0, 5.0), 2.0);
+        assert_eq!(budget(0.0, 2.0, 1.0), 0.0, "a zero target keeps every rank");
         assert!((budget(0.1, 2.0, 1.0) - 1.01).abs() < 1e-8);
     }
 }

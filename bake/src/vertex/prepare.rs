@@ -23,6 +23,9 @@ use crate::scene::Scene;
 use super::plan::{first_triangles, vertex_normals};
 use super::units::{plan_units, Unit, UNIT_VERTICES};
 
+/// What welds two vertices: the bits of position, normal and texture coordinate, and the group.
+type WeldKey = ([u32; 3], [u32; 3], [u32; 2], u32);
+
 /// A scene prepared for the per-vertex bake.
 pub struct PreparedScene {
     /// The scene with welded, reordered vertices (normals: the baked ones, unit length).
@@ -64,7 +67,7 @@ fn prepare(scene: &Scene, max_unit: usize, weld: bool) -> PreparedScene {
         .collect();
 
     // Weld: the first vertex (by index) with a key stands for every later one.
-    let mut key_to_new: HashMap<([u32; 3], [u32; 3], [u32; 2], u32), u32> = HashMap::new();
+    let mut key_to_new: HashMap<WeldKey, u32> = HashMap::new();
     let mut old_to_welded = vec![u32::MAX; loaded];
     let mut welded_src: Vec<u32> = Vec::new();
     let mut unused = 0;

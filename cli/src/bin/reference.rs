@@ -16,6 +16,7 @@ use prt_formats::MaterialOverride;
 
 #[derive(Parser, Debug)]
 #[command(
+    name = "reference",
     version,
     about = "Reference path tracer: the ground truth a bake is checked against"
 )]
@@ -68,8 +69,18 @@ struct Args {
     json: bool,
 }
 
+/// Words users type for this tool's flags (clap suggests only flags spelt alike).
+const SYNONYMS: &[(&str, &str)] = &[
+    ("sample", "spp"),
+    ("samples", "spp"),
+    ("material", "set"),
+    ("materials", "set"),
+    ("output", "out"),
+    ("environment", "env"),
+];
+
 fn main() -> ExitCode {
-    prt_cli::exit_code(run(Args::parse()))
+    prt_cli::exit_code(run(prt_cli::parse_args(SYNONYMS)))
 }
 
 fn run(args: Args) -> Result<()> {
@@ -133,6 +144,7 @@ fn run(args: Args) -> Result<()> {
     let (w, h) = (width as usize, height as usize);
     let exr = out.with_extension("exr");
     let png = out.with_extension("png");
+    let existed = exr.exists() || png.exists();
     prt_formats::write_exr(&exr, w, h, &rgb)?;
     prt_formats::write_png(&png, w, h, &rgb, args.exposure)?;
     let mean = r.mean();
@@ -166,15 +178,17 @@ fn run(args: Args) -> Result<()> {
             "mean_radiance": mean.to_array(),
             "material_mean_radiance": materials,
             "background_mean_radiance": r.background_mean.0.map(|v| v.to_array()),
+            "replaced": existed,
         });
         println!("{json}");
     } else {
         eprintln!(
-            "rendered {width}x{height} at {spp} spp in {:.2} s ({:.2} Mrays/s); wrote {} and {}",
+            "rendered {width}x{height} at {spp} spp in {:.2} s ({:.2} Mrays/s); wrote {} and {}{}",
             r.seconds,
             r.rays as f64 / r.seconds.max(1e-9) / 1e6,
             exr.display(),
-            png.display()
+            png.display(),
+            prt_cli::replaced(existed)
         );
     }
     Ok(())

@@ -375,7 +375,10 @@ fn warn_about_edits(set: &[MaterialOverride], materials: &[MaterialInfo]) -> boo
         .filter(|m| set.iter().any(|o| o.material == m.name))
     {
         let colour = |want: fn(&OverrideValue) -> Option<[f32; 3]>| {
-            m.params.iter().find_map(|p| want(&p.value)).unwrap_or([0.0; 3])
+            m.params
+                .iter()
+                .find_map(|p| want(&p.value))
+                .unwrap_or([0.0; 3])
         };
         let kd = colour(|v| match v {
             OverrideValue::Kd(c) => Some(*c),

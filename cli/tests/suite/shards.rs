@@ -92,7 +92,7 @@ fn sharded_equals_whole(base: &[&str], dir: &Path, count: u32) -> (PathBuf, Vec<
 #[test]
 fn pixel_shards_baked_at_once_merge_to_the_unsharded_bytes() {
     let dir = tempfile::tempdir().expect("temp dir");
-    let cornell = scenes().join("cornell/cornell.toml");
+    let cornell = scenes().join("cornell/bake.toml");
     let base = [s(&cornell), "--width", "24", "--height", "20", "--spp", "2"];
     sharded_equals_whole(&base, dir.path(), 4);
 }

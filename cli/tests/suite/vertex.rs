@@ -211,11 +211,11 @@ fn a_vertex_bake_relights_any_view_light_and_material_and_refuses_bad_input() {
             "8",
             "--spp",
             "1",
-            "--keep-checkpoint",
+            "--keep-traced",
             "--out",
             s(&kept),
         ],
-        &["--keep-checkpoint", "per-vertex"],
+        &["--keep-traced", "per-vertex"],
         &kept,
     );
 }

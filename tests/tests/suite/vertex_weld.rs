@@ -73,8 +73,18 @@ fn scene() -> Scene {
         name: "block".into(),
         positions: c,
         triangles: vec![
-            [0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
-            [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3],
+            [0, 1, 3],
+            [0, 3, 2],
+            [4, 6, 7],
+            [4, 7, 5],
+            [0, 4, 5],
+            [0, 5, 1],
+            [2, 3, 7],
+            [2, 7, 6],
+            [0, 2, 6],
+            [0, 6, 4],
+            [1, 5, 7],
+            [1, 7, 3],
         ],
         material: block,
         ..Default::default()
@@ -83,7 +93,8 @@ fn scene() -> Scene {
     let path = w.write(&dir, "weld").expect("write glTF");
     let mut scene = prt_bake::scene::load(&BakeConfig::with_defaults(path)).expect("load");
     assert!(
-        scene.normals.len() == scene.positions.len() && scene.positions.len() == 6 * (n * n + 6) as usize,
+        scene.normals.len() == scene.positions.len()
+            && scene.positions.len() == 6 * (n * n + 6) as usize,
         "the loader should split every triangle's corners: {} vertices",
         scene.positions.len()
     );
