@@ -281,6 +281,9 @@ fn tucker_block(
 }
 
 #[cfg(test)]
+// The tests index tensors the way the formulas are written (a sum over b, a, r per element), and
+// a one-cluster call passes one range.
+#[allow(clippy::needless_range_loop, clippy::single_range_in_vec_init)]
 mod tests {
     use super::*;
 
