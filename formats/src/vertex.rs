@@ -14,7 +14,11 @@
 //!   [`VertexBakeMeta::group_t0_terms`] of them).
 //!   `sum_t C0[index_t] value_t` is then `integral L T0~_k dw` for a light whose Haar
 //!   coefficients are C0. Rows: `[U^i rows..., irradiance]`; a diffuse material has only the
-//!   irradiance row. Padding terms have index 0 and value 0.
+//!   irradiance row. Padding terms have index 0 and value 0. From schema 4 a vertex's
+//!   irradiance row may instead hold its occluded part `(w . n)+ (1 - V(w))` (its flag in
+//!   [`names::t0_open`] is 1): the irradiance is then the open sky's at the vertex normal
+//!   ([`crate::lighting::irradiance::irradiance_table`] of the light's cube, read bilinearly)
+//!   minus the sparse dot.
 //! - **Visibility**: per vertex, the visible fraction of each texel of a
 //!   [`VISIBILITY_CUBE`]-sized cube map (u8, 255 = fully visible; texels below the tangent
 //!   plane are 0), for the specular lobes' direct part.
@@ -46,8 +50,10 @@ use crate::pixel::{BasisMeta, MaterialMeta, Precision};
 /// Version of the per-vertex schema (inside the container's own schema version). Version 2
 /// added compressed T1 and T2 ([`crate::clustered`]); version 3 a per-group count of T0 terms
 /// ([`VertexGroupMeta::t0_terms`]) and clusters chosen from the error target
-/// ([`CompressionSettings::cluster_vertices`] absent). Version 1 and 2 files are still read.
-pub const VERTEX_SCHEMA_VERSION: u32 = 3;
+/// ([`CompressionSettings::cluster_vertices`] absent); version 4 the open-sky flags of the
+/// irradiance rows ([`names::t0_open`]; without them every row is the visible part). Versions
+/// 1 to 3 are still read.
+pub const VERTEX_SCHEMA_VERSION: u32 = 4;
 /// The oldest per-vertex schema version this build reads.
 pub const OLDEST_VERTEX_SCHEMA_VERSION: u32 = 1;
 
@@ -277,6 +283,11 @@ pub struct VertexBakeMeta {
 }
 
 impl VertexBakeMeta {
+    /// Whether the groups store open-sky flags ([`names::t0_open`]; schema 4 on).
+    pub fn has_t0_open(&self) -> bool {
+        self.vertex_schema_version >= 4
+    }
+
     /// Haar terms stored per T0 row of group `g`: its own count, or the bake's.
     pub fn group_t0_terms(&self, g: &VertexGroupMeta) -> usize {
         g.t0_terms.unwrap_or(self.t0_terms) as usize
@@ -462,6 +473,14 @@ pub mod names {
     pub fn t0_value(g: usize) -> String {
         format!("v{g}.t0.value")
     }
+    /// Group `g`'s open-sky flags, `[vertices_g]` u8 (schema 4 on): 1 where the vertex's
+    /// irradiance row (T0's last) holds the occluded part `(w . n)+ (1 - V)`, to be
+    /// subtracted from the open sky's irradiance at the vertex normal
+    /// ([`crate::lighting::irradiance`]); 0 where it holds the visible part `(w . n) V`.
+    pub fn t0_open(g: usize) -> String {
+        format!("v{g}.t0.open")
+    }
+
     /// Group `g`'s visibility, `[vertices_g, 6 * 16 * 16]` u8.
     pub fn visibility(g: usize) -> String {
         format!("v{g}.visibility")

@@ -293,6 +293,22 @@ pub fn assemble_vertex_file(
             source(move |out| t0.write(out)),
         );
 
+        let open_units = units.clone();
+        w.add_streamed(
+            &names::t0_open(g),
+            Dtype::U8,
+            &[v],
+            v,
+            source(move |out| {
+                for &u in &open_units {
+                    let p = pieces.piece(u).map_err(io::Error::other)?;
+                    let b = p.values::<u8>("t0.open").map_err(io::Error::other)?;
+                    out.write_all(&b)?;
+                }
+                Ok(())
+            }),
+        );
+
         let width = if gs.visibility == Some(true) {
             cube_len(VISIBILITY_CUBE)
         } else {

@@ -70,7 +70,7 @@ use crate::shard::{checkpoint_folder, PieceStore};
 pub use assemble::{assemble_vertex_file, Assembled, VertexCommon};
 pub use bake::{bake_units, units_in_flight, vertex_common, UnitsDone, VertexTimings, BATCH_BYTES};
 pub use cluster_choice::{unit_vertices, DEFAULT_PARTS};
-pub use direct::T0_TEXELS;
+pub use direct::{HaarTerms, T0_TEXELS};
 pub use error::VertexError;
 pub use fingerprint::vertex_fingerprints;
 pub use memory::VertexMemoryEstimate;

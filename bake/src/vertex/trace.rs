@@ -58,6 +58,8 @@ pub struct VertexResult {
     /// `[t0_rows][6 * 64 * 64]`: T0~ at each direct texel's centre (cube-map order), before
     /// the Haar transform; 0 below the horizon and where occluded.
     pub t0: Vec<f32>,
+    /// `[6 * 64 * 64]`: the irradiance row's occluded part, `(w . n)+ (1 - V)`.
+    pub t0_occluded: Vec<f32>,
     /// `[6 * 16 * 16]`: the fraction of each texel's 4 x 4 direct texels that are above the
     /// horizon and visible.
     pub visibility: Vec<f32>,
@@ -277,7 +279,7 @@ impl<'a> VertexTracer<'a> {
         let g = self.group_of(v).ok_or(VertexError::NoGroup { vertex: v })?;
         let frame = self.frame(v);
         let shading = self.shading[g];
-        let (t0, t0_rows, visibility, direct_rays) =
+        let (t0, t0_rows, t0_occluded, visibility, direct_rays) =
             self.direct.trace(self.integ.accel, &frame, shading);
 
         let c = self.plan.slots.channels;
@@ -359,6 +361,7 @@ impl<'a> VertexTracer<'a> {
             group: g,
             t0_rows,
             t0,
+            t0_occluded,
             visibility,
             t1_noise: half_noise(&t1, &t1_odd, self.opts.samples),
             t2_noise: half_noise(&t2, &t2_odd, self.opts.samples),
@@ -530,14 +533,12 @@ impl<'a> VertexTracer<'a> {
     }
 
     /// T0's rows of a traced vertex, area-weighted-Haar transformed, each truncated to its
-    /// `t0_terms` largest terms padded with (index 0, value 0): (indices, values, sum of
-    /// squares of all coefficients, of the dropped ones). The transform is orthonormal in the
-    /// solid-angle metric, so `sum_t C0[index_t] value_t` is `integral L T0~ dw` for a light
-    /// whose Haar coefficients are C0.
-    pub fn haar_terms(
-        &self,
-        r: &VertexResult,
-    ) -> Result<(Vec<u16>, Vec<f32>, f64, f64), VertexError> {
-        self.direct.haar_terms(r.vertex, &r.t0, self.opts.t0_terms)
+    /// `t0_terms` largest terms padded with (index 0, value 0), the irradiance row visible or
+    /// occluded, whichever drops less (`direct.rs`).
+    /// The transform is orthonormal in the solid-angle metric, so `sum_t C0[index_t]
+    /// value_t` is `integral L T0~ dw` for a light whose Haar coefficients are C0.
+    pub fn haar_terms(&self, r: &VertexResult) -> Result<super::direct::HaarTerms, VertexError> {
+        self.direct
+            .haar_terms(r.vertex, &r.t0, &r.t0_occluded, self.opts.t0_terms)
     }
 }

@@ -4,7 +4,8 @@
 //! the file needs of the unit and the figures the assembly adds up per group.
 //!
 //! A piece's sections: `t0.index` (u16) and `t0.value` (f32), `[vertices, rows, t0_terms]`,
-//! every row's stored Haar terms before any cut; `visibility` (u8, `[vertices, 1536]`, groups
+//! every row's stored Haar terms before any cut; `t0.open` (u8, `[vertices]`: 1 where the
+//! irradiance row is the occluded part, `direct.rs`); `visibility` (u8, `[vertices, 1536]`, groups
 //! with a lobe only); dense `t1`, `t2` (f32) or, compressed, per tensor `T.ranks` (u32,
 //! `(a, r, b)` per cluster), `T.factors`, `T.core` and `T.vertex` (f32, cluster after
 //! cluster; `T.vertex` holds each cluster's `n_c x b_c` rows). Its summary holds the figures
@@ -31,6 +32,8 @@ use super::VertexBakeOptions;
 pub(crate) struct TracedUnit {
     pub t0_index: Vec<u16>,
     pub t0_value: Vec<f32>,
+    /// Per vertex, 1 when its irradiance row is the occluded part (`direct.rs`).
+    pub t0_open: Vec<u8>,
     /// Empty for a group without a lobe.
     pub visibility: Vec<u8>,
     pub t1: Vec<f32>,
@@ -48,6 +51,7 @@ impl TracedUnit {
     fn append(&mut self, o: TracedUnit) {
         self.t0_index.extend(o.t0_index);
         self.t0_value.extend(o.t0_value);
+        self.t0_open.extend(o.t0_open);
         self.visibility.extend(o.visibility);
         self.t1.extend(o.t1);
         self.t2.extend(o.t2);
@@ -140,9 +144,10 @@ fn trace_block(tracer: &VertexTracer, vertices: &[u32]) -> Result<TracedUnit, Ve
     let mut out = TracedUnit::default();
     for &v in vertices {
         let r = tracer.trace(v)?;
-        let (index, value, total, dropped) = tracer.haar_terms(&r)?;
-        out.t0_index.extend(index);
-        out.t0_value.extend(value);
+        let terms = tracer.haar_terms(&r)?;
+        out.t0_index.extend(terms.index);
+        out.t0_value.extend(terms.value);
+        out.t0_open.push(u8::from(terms.open));
         if tracer.group_shading(r.group).is_some() {
             // Only the specular lobes read the visibility (docs/vertex.md, section 3).
             out.visibility.extend(r.visibility_u8());
@@ -152,8 +157,8 @@ fn trace_block(tracer: &VertexTracer, vertices: &[u32]) -> Result<TracedUnit, Ve
         out.t1_noise.push(r.t1_noise);
         out.t2_noise.push(r.t2_noise);
         out.rays += r.rays;
-        out.t0_total += total;
-        out.t0_dropped += dropped;
+        out.t0_total += terms.total;
+        out.t0_dropped += terms.dropped;
     }
     Ok(out)
 }
@@ -256,6 +261,7 @@ pub(crate) fn finish_unit(
     );
     piece.add("t0.index", &traced.t0_index);
     piece.add("t0.value", &traced.t0_value);
+    piece.add("t0.open", &traced.t0_open);
     if !traced.visibility.is_empty() {
         piece.add("visibility", &traced.visibility);
     }
@@ -378,6 +384,7 @@ pub(crate) fn traced_from_piece(piece: &Piece) -> Result<TracedUnit, ShardError>
     let t = TracedUnit {
         t0_index: piece.values::<u16>("t0.index")?.into_owned(),
         t0_value: piece.values::<f32>("t0.value")?.into_owned(),
+        t0_open: piece.values::<u8>("t0.open")?.into_owned(),
         visibility,
         t1: piece.values::<f32>("t1")?.into_owned(),
         t2: piece.values::<f32>("t2")?.into_owned(),
@@ -394,6 +401,9 @@ pub(crate) fn traced_from_piece(piece: &Piece) -> Result<TracedUnit, ShardError>
     };
     if t.visibility.len() != visibility_len {
         return Err(piece.bad("its visibility has the wrong size".into()));
+    }
+    if t.t0_open.len() != s.vertices {
+        return Err(piece.bad("its T0 open flags have the wrong size".into()));
     }
     Ok(t)
 }

@@ -19,6 +19,7 @@
 pub mod cubemap;
 mod error;
 pub mod haar;
+pub mod irradiance;
 pub mod prefilter;
 pub mod quadrature;
 pub mod sh;

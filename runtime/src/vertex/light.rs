@@ -112,6 +112,23 @@ pub(crate) fn environment_cube(
     CubeMap::new(DIRECT_CUBE, faces.concat())
 }
 
+/// The open sky's irradiance per normal of the light `cube` (6 x 64 x 64):
+/// [`prt_formats::lighting::irradiance::irradiance_table`]'s values bit for bit, its six faces
+/// computed in parallel.
+pub(crate) fn open_sky(cube: &CubeMap) -> Result<CubeMap, LightingError> {
+    use prt_formats::lighting::irradiance::{IrradianceSource, IRRADIANCE_CUBE, IRRADIANCE_SOURCE};
+    let mut source = cube.clone();
+    while source.size() > IRRADIANCE_SOURCE {
+        source = source.downsample()?;
+    }
+    let source = IrradianceSource::new(&source);
+    let faces: Vec<Vec<[f32; 3]>> = Face::ALL
+        .par_iter()
+        .map(|&face| source.face(IRRADIANCE_CUBE, face))
+        .collect();
+    CubeMap::new(IRRADIANCE_CUBE, faces.concat())
+}
+
 /// [`LightCoefficients::prefiltered`] of `cube` for `widths_deg` (width 0: `cube` itself):
 /// every (width, face) computed on its own and in parallel, so the result does not depend on
 /// the thread count.

@@ -38,6 +38,9 @@ pub(super) struct GroupLayout {
     pub active: usize,
     /// Where T1 and T2 lie when they are stored compressed.
     pub compressed: Option<CompressedLayout>,
+    /// Per vertex, whether its irradiance row is the occluded part (subtracted from the open
+    /// sky's irradiance); empty before schema 4 (every row the visible part).
+    pub t0_open: Vec<bool>,
 }
 
 /// Everything of a validated bake besides the big group tensors (read at each stage from the
@@ -204,6 +207,20 @@ pub(super) fn validate(file: &BakeFile) -> Result<(VertexBakeMeta, Scene), Runti
             )));
         }
         c.typed(&names::t0_value(g), dtype, &[vg, rows, terms])?;
+        let t0_open = if meta.has_t0_open() {
+            c.typed(&names::t0_open(g), Dtype::U8, &[vg])?;
+            let flags = file.tensor(&names::t0_open(g))?.as_u8()?;
+            if let Some(k) = flags.iter().position(|&f| f > 1) {
+                return Err(schema(format!(
+                    "{}: flag {} at vertex {k} is neither 0 nor 1",
+                    names::t0_open(g),
+                    flags[k]
+                )));
+            }
+            flags.iter().map(|&f| f == 1).collect()
+        } else {
+            Vec::new()
+        };
         // Only a group with a specular lobe needs its visibility; one without stores none
         // (schema 2) or a full one (schema 1).
         let vis = names::visibility(g);
@@ -260,6 +277,7 @@ pub(super) fn validate(file: &BakeFile) -> Result<(VertexBakeMeta, Scene), Runti
             rows,
             active: j,
             compressed,
+            t0_open,
         });
     }
     // Every triangle's vertices carry the data of its own material.

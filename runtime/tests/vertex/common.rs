@@ -100,6 +100,8 @@ pub struct Group {
     pub t0_shape: [usize; 3],
     /// `[V_g, 1536]`.
     pub visibility: Vec<u8>,
+    /// `[V_g]`: 1 where the irradiance row is the occluded part (schema 4).
+    pub t0_open: Vec<u8>,
     /// `[V_g, 384, J, 16, channels]`.
     pub t1: Vec<f32>,
     pub t1_shape: [usize; 5],
@@ -143,6 +145,7 @@ impl Group {
             t0_value,
             t0_shape: [nv, rows, terms],
             visibility: vec![255; nv * cube_len(VISIBILITY_CUBE)],
+            t0_open: vec![0; nv],
             t1: vec![0.0; t1_shape.iter().product()],
             t1_shape,
             t1_f16: None,
@@ -593,6 +596,10 @@ impl Bake {
                 &gd.visibility,
             )
             .expect("visibility");
+            if self.meta.vertex_schema_version >= 4 {
+                w.add_u8(&names::t0_open(g), &[gd.vertices.len()], &gd.t0_open)
+                    .expect("t0 open");
+            }
             if let Some((clusters, tensors, halves)) = compressed.get(g) {
                 w.add_u32(&names::clusters(g), &[clusters.len()], clusters)
                     .expect("clusters");

@@ -3,6 +3,7 @@
 //! `LightCoefficients`, tested on its own) and known slot coefficients; T0 against the cube's
 //! irradiance integral under a rotated, asymmetric environment.
 
+use prt_formats::lighting::irradiance::irradiance_table;
 use prt_formats::pixel::Precision;
 use prt_formats::vertex::{cube_len, SH_TERMS, T1_LIGHT_CUBE, T2_LIGHT_CUBE};
 use prt_formats::Family;
@@ -57,6 +58,12 @@ fn one_nonzero_bin_gives_i1_and_i2_exactly() {
         let rows: Vec<_> = (0..4).map(|_| t0_rows(UP, None)).collect();
         let (nj, ni) = (4usize, 2usize);
         let mut g = Group::new(vec![0, 1, 2, 3], &rows, nj, ni, channels);
+        // Vertex 3 stores its irradiance row as the occluded part (zero: nothing occludes
+        // the quad) with its open flag: its E is the open sky's table at its normal.
+        g.t0_open[3] = 1;
+        let (nrows, nterms) = (g.t0_shape[1], g.t0_shape[2]);
+        let at = (3 * nrows + nrows - 1) * nterms;
+        g.t0_value[at..at + nterms].fill(0.0);
         for v in 0..4 {
             for j in 0..nj {
                 for s in 0..SH_TERMS {
@@ -120,6 +127,19 @@ fn one_nonzero_bin_gives_i1_and_i2_exactly() {
                     .sum()
             })
             .collect();
+        let open_sky = irradiance_table(&light.cube).expect("irradiance table");
+        let up = UP.map(f64::from);
+        let open = open_sky.lookup_bilinear(up);
+        for ch in 0..3 {
+            // The table against the texel sum: within its quadrature and interpolation.
+            let rel = (f64::from(open[ch]) - direct[ch]).abs() / direct[ch];
+            assert!(
+                rel < 5e-3,
+                "open sky {} vs texel sum {}",
+                open[ch],
+                direct[ch]
+            );
+        }
         for v in 0..4 {
             let inc = r
                 .vertex_incident(v)
@@ -166,7 +186,12 @@ fn one_nonzero_bin_gives_i1_and_i2_exactly() {
                     (got - want).abs() <= 1e-5 * want.abs().max(1e-3),
                     "{what}: I2[{ch}] = {got}, want {want}"
                 );
-                e[ch] += std::f64::consts::PI * want + direct[ch];
+                let t0_part = if v == 3 {
+                    f64::from(open[ch])
+                } else {
+                    direct[ch]
+                };
+                e[ch] += std::f64::consts::PI * want + t0_part;
                 let got = inc.irradiance[ch] as f64;
                 let tol = if precision == Precision::F16 {
                     2e-3
