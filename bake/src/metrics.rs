@@ -93,9 +93,61 @@ pub fn mean_difference(a: &[[f32; 3]], b: &[[f32; 3]]) -> MeanDifference {
     }
 }
 
+/// An error over part of an image (a region: [`crate::view::first_hit_materials`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RegionError {
+    /// Pixels in the region.
+    pub pixels: usize,
+    /// `||a - b|| / ||b||` over the region's pixels and channels.
+    pub relative_l2: f64,
+    /// The region's mean of `a` over its mean of `b` (channels added): a bias shows as a
+    /// ratio away from 1 however the error is spread.
+    pub mean_ratio: f64,
+    /// The region's `||a - b||^2` over the whole image's `||b||^2`: the regions' shares add
+    /// up to the whole image's squared relative L2.
+    pub squared_share: f64,
+}
+
+/// The error of `a` against `b` over the pixels where `inside` is true. NaN figures when the
+/// images or the mask differ in size, or the region is empty.
+pub fn region_error(a: &[[f32; 3]], b: &[[f32; 3]], inside: &[bool]) -> RegionError {
+    let nan = RegionError {
+        pixels: 0,
+        relative_l2: f64::NAN,
+        mean_ratio: f64::NAN,
+        squared_share: f64::NAN,
+    };
+    if a.len() != b.len() || a.len() != inside.len() {
+        return nan;
+    }
+    let (mut num, mut den, mut sa, mut sb, mut all, mut n) = (0.0f64, 0.0, 0.0, 0.0, 0.0, 0);
+    for ((x, y), &m) in a.iter().zip(b).zip(inside) {
+        for c in 0..3 {
+            let (x, y) = (f64::from(x[c]), f64::from(y[c]));
+            all += y * y;
+            if m {
+                num += (x - y) * (x - y);
+                den += y * y;
+                sa += x;
+                sb += y;
+            }
+        }
+        n += usize::from(m);
+    }
+    if n == 0 {
+        return nan;
+    }
+    RegionError {
+        pixels: n,
+        relative_l2: (num / den.max(1e-300)).sqrt(),
+        mean_ratio: sa / sb,
+        squared_share: num / all.max(1e-300),
+    }
+}
+
 #[cfg(test)]
 mod tests {
-    use super::{mean_difference, relative_l2, rmse};
+    use super::{mean_difference, region_error, relative_l2, rmse};
 
     #[test]
     fn error_measures() {
@@ -129,5 +181,22 @@ mod tests {
         // A truncated or single-pixel image is no measurement.
         assert!(mean_difference(&a[..1], &b).mean[0].is_nan());
         assert!(mean_difference(&a[..1], &b[..1]).standard_error[0].is_nan());
+    }
+
+    #[test]
+    fn region_errors_add_up_to_the_image() {
+        let b = [[1.0f32, 1.0, 1.0], [2.0, 2.0, 2.0], [0.5, 0.5, 0.5]];
+        let a = [[1.1f32, 1.1, 1.1], [1.0, 1.0, 1.0], [0.5, 0.5, 0.5]];
+        let m = [true, false, true];
+        let inside = region_error(&a, &b, &m);
+        let outside = region_error(&a, &b, &m.map(|x| !x));
+        assert_eq!((inside.pixels, outside.pixels), (2, 1));
+        assert!((outside.mean_ratio - 0.5).abs() < 1e-12);
+        assert!((inside.mean_ratio - 1.6 / 1.5).abs() < 1e-6);
+        let whole = relative_l2(&a, &b);
+        assert!((inside.squared_share + outside.squared_share - whole * whole).abs() < 1e-9);
+        assert!((outside.relative_l2 - 0.5).abs() < 1e-12);
+        assert!(region_error(&a, &b, &[true]).relative_l2.is_nan());
+        assert!(region_error(&a, &b, &[false; 3]).mean_ratio.is_nan());
     }
 }

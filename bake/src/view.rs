@@ -75,3 +75,22 @@ pub fn check_eye_outside(scene: &Scene, accel: &Accel, eye: Vec3) -> Result<(), 
     }
     Ok(())
 }
+
+/// What the centre of each pixel of a `width x height` image from the scene's camera sees
+/// first: the material index of the nearest surface, or `None` where the ray escapes to the
+/// environment. Row-major with y down, the pixel order of the reference's and relight's
+/// images; the regions an error is split into (`bench budget`, the convergence tests).
+pub fn first_hit_materials(scene: &Scene, width: u32, height: u32) -> Vec<Option<u32>> {
+    let accel = Accel::build(scene);
+    let lights = crate::lights::LightSet::new(scene);
+    let integ = crate::integrator::Integrator::new(scene, &accel, &lights, 1, width, height);
+    (0..height)
+        .flat_map(|y| (0..width).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            let (o, d) = integ.camera_ray(x as f32 + 0.5, y as f32 + 0.5);
+            accel
+                .intersect(o, d, 0.0, f32::INFINITY)
+                .map(|h| scene.triangle_material[h.triangle as usize])
+        })
+        .collect()
+}

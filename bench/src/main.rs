@@ -96,6 +96,11 @@ enum Command {
     /// Per-vertex bakes at scale: time and peak memory against the vertex count (10K to 1M) on
     /// generated yards, and the shard balance for N = 4 and 16 (docs/report-vertex.md, "Scale").
     Scale(prt_bench::vertex::scale::ScaleArgs),
+    /// The per-vertex error budget: relit images against converged ground truth (independent
+    /// reference seeds averaged, their noise measured), split by region and by part of the
+    /// method (compression, bake noise, T0's Haar truncation, the rest) (docs/report-vertex.md,
+    /// "Error budget").
+    Budget(prt_bench::vertex::budget::BudgetArgs),
     /// Compares linear images (EXR): relative L2 of each against the last, and the ratio of
     /// their means (a bias shows as a ratio away from 1).
     Diff {
@@ -104,6 +109,11 @@ enum Command {
         images: Vec<PathBuf>,
         #[arg(long)]
         json: bool,
+        /// Also split the figures by region: what each pixel's camera ray meets first in this
+        /// config's scene from its camera (every material, and the background). The images
+        /// must be renders of that view.
+        #[arg(long, value_name = "CONFIG")]
+        regions: Option<PathBuf>,
     },
     /// Writes the generated outdoor scene "the yard" (a ground grid, an editable GGX sphere,
     /// Blinn-Phong torus and diffuse box; `prt_bake::testing::Yard`) as glTF plus a per-vertex
@@ -159,6 +169,11 @@ fn run(cli: Cli) -> Result<()> {
             print!("{section}");
             Ok(())
         }
+        Command::Budget(args) => {
+            let section = prt_bench::vertex::budget::run(&args)?;
+            print!("{section}");
+            Ok(())
+        }
         Command::Yard {
             out,
             no_normals,
@@ -184,7 +199,11 @@ fn run(cli: Cli) -> Result<()> {
             );
             Ok(())
         }
-        Command::Diff { images, json } => {
+        Command::Diff {
+            images,
+            json,
+            regions,
+        } => {
             let read = |p: &PathBuf| -> Result<(usize, usize, Vec<[f32; 3]>)> {
                 prt_formats::read_exr_rgb(p).map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))
             };
@@ -192,6 +211,28 @@ fn run(cli: Cli) -> Result<()> {
                 bail!("give at least two images");
             };
             let (w, h, reference) = read(last)?;
+            let masks: Vec<(String, Vec<bool>)> = match &regions {
+                Some(c) => {
+                    let (_, scene) = prt_bake::run::load(c, &prt_bake::progress::Silent)?;
+                    let first = prt_bake::view::first_hit_materials(&scene, w as u32, h as u32);
+                    let mut m: Vec<(String, Vec<bool>)> = scene
+                        .materials
+                        .iter()
+                        .enumerate()
+                        .map(|(i, mat)| {
+                            let mask = first.iter().map(|f| *f == Some(i as u32)).collect();
+                            (mat.name.clone(), mask)
+                        })
+                        .collect();
+                    m.push((
+                        "background".into(),
+                        first.iter().map(Option::is_none).collect(),
+                    ));
+                    m.retain(|(_, mask)| mask.iter().any(|&x| x));
+                    m
+                }
+                None => Vec::new(),
+            };
             let mean = |v: &[[f32; 3]]| {
                 v.iter().map(|p| f64::from(p[0] + p[1] + p[2])).sum::<f64>()
                     / (3 * v.len().max(1)) as f64
@@ -211,7 +252,24 @@ fn run(cli: Cli) -> Result<()> {
                 if !json {
                     println!("{}: rel. L2 {rel:.4}, mean ratio {ratio:.4}", p.display());
                 }
-                rows.push(serde_json::json!({"image": p, "relative_l2": rel, "mean_ratio": ratio}));
+                let mut by_region = serde_json::Map::new();
+                for (name, mask) in &masks {
+                    let e = prt_bake::metrics::region_error(&img, &reference, mask);
+                    if !json {
+                        println!(
+                            "  {name} ({} pixels): rel. L2 {:.4}, mean ratio {:.4}, share of the squared error {:.3}",
+                            e.pixels,
+                            e.relative_l2,
+                            e.mean_ratio,
+                            e.squared_share / (rel * rel).max(1e-300)
+                        );
+                    }
+                    by_region.insert(
+                        name.clone(),
+                        serde_json::json!({"pixels": e.pixels, "relative_l2": e.relative_l2, "mean_ratio": e.mean_ratio}),
+                    );
+                }
+                rows.push(serde_json::json!({"image": p, "relative_l2": rel, "mean_ratio": ratio, "regions": by_region}));
             }
             if json {
                 println!("{}", serde_json::Value::Array(rows));

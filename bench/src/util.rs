@@ -113,3 +113,26 @@ pub fn peak_resident_bytes() -> Option<u64> {
     let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kib * 1024)
 }
+
+/// Replaces the part of the markdown file `report` between the lines `begin` and `end`
+/// (markers included; `section` carries its own) with `section`, or appends it when the file
+/// has no such part; written atomically. Several commands write their sections into one
+/// report this way.
+pub fn write_section(report: &Path, section: &str, begin: &str, end: &str) -> anyhow::Result<()> {
+    let text = std::fs::read_to_string(report).unwrap_or_default();
+    let new = match (text.find(begin), text.find(end)) {
+        (Some(a), Some(b)) if b > a => {
+            format!(
+                "{}{}{}",
+                &text[..a],
+                section.trim_end(),
+                &text[b + end.len()..]
+            )
+        }
+        _ => format!("{}\n\n{}", text.trim_end(), section),
+    };
+    let tmp = report.with_extension("md.tmp");
+    std::fs::write(&tmp, new)?;
+    std::fs::rename(&tmp, report)?;
+    Ok(())
+}

@@ -76,25 +76,38 @@ pub(crate) fn references(
     let mut out = Vec::new();
     for light in &LIGHTS {
         eprintln!("reference: {} at {spp} spp", light.name);
-        let mut sc = scene.clone();
-        if let Some((map, rotation)) = light.map {
-            sc.environment =
-                prt_bake::scene::envmap::load_latlong(Path::new(map), map_intensity(config))?.0;
-            sc.environment_rotation = rotation;
-        }
-        let r = prt_bake::reference::render_true(
-            &sc,
-            config.reflections as usize,
-            size,
-            size,
-            spp,
-            prt_bake::film_emission::DEFAULT_EMISSION_OVERSAMPLING,
-            config.seed,
-            None,
-        );
-        out.push(r.pixels.iter().map(|p| p.to_array()).collect());
+        out.push(reference(config, scene, light, size, spp, config.seed)?);
     }
     Ok(out)
+}
+
+/// The reference tracer's image of `scene` under `light` (true BRDFs, the config's
+/// reflections), square, with random streams keyed by `seed`.
+pub(crate) fn reference(
+    config: &BakeConfig,
+    scene: &Scene,
+    light: &Light,
+    size: u32,
+    spp: u32,
+    seed: u64,
+) -> Result<Pixels> {
+    let mut sc = scene.clone();
+    if let Some((map, rotation)) = light.map {
+        sc.environment =
+            prt_bake::scene::envmap::load_latlong(Path::new(map), map_intensity(config))?.0;
+        sc.environment_rotation = rotation;
+    }
+    let r = prt_bake::reference::render_true(
+        &sc,
+        config.reflections as usize,
+        size,
+        size,
+        spp,
+        prt_bake::film_emission::DEFAULT_EMISSION_OVERSAMPLING,
+        seed,
+        None,
+    );
+    Ok(r.pixels.iter().map(|p| p.to_array()).collect())
 }
 
 /// A bake's images and their errors, per light.

@@ -8,6 +8,7 @@
 //! interleaved rounds (view only; view + BRDF: a material edit; view + BRDF + light: a turn of
 //! the environment as well), and the goals of the per-vertex mode are checked.
 
+pub mod budget;
 mod measure;
 mod report;
 pub mod scale;

@@ -186,7 +186,7 @@ pub fn run(args: &ScaleArgs) -> Result<String> {
     }
 
     let section = section(args, &rows, &balance);
-    write_section(&args.out, &section)?;
+    crate::util::write_section(&args.out, &section, BEGIN, END)?;
     Ok(section)
 }
 
@@ -265,24 +265,4 @@ fn section(args: &ScaleArgs, rows: &[Baked], balance: &[(u32, Vec<f64>, bool)]) 
     }
     let _ = writeln!(s, "\n{END}");
     s
-}
-
-/// Replaces the section between the markers in `report`, or appends it.
-fn write_section(report: &Path, section: &str) -> Result<()> {
-    let text = std::fs::read_to_string(report).unwrap_or_default();
-    let new = match (text.find(BEGIN), text.find(END)) {
-        (Some(a), Some(b)) if b > a => {
-            format!(
-                "{}{}{}",
-                &text[..a],
-                section.trim_end(),
-                &text[b + END.len()..]
-            )
-        }
-        _ => format!("{}\n{}", text.trim_end(), section),
-    };
-    let tmp = report.with_extension("md.tmp");
-    std::fs::write(&tmp, new)?;
-    std::fs::rename(&tmp, report)?;
-    Ok(())
 }

@@ -34,7 +34,7 @@ pub(crate) struct Setting {
 }
 
 impl Setting {
-    fn defaults() -> Setting {
+    pub(crate) fn defaults() -> Setting {
         Setting {
             label: "defaults".into(),
             knob: "",

@@ -1,0 +1,405 @@
+//! The per-vertex error budget (`bench budget`; "Error budget" in docs/report-vertex.md): a
+//! scene's relit image against converged ground truth, split by region (what each pixel's
+//! camera ray meets first: every material, and the background) and by part of the method,
+//! each part measured by moving one approximation to (or towards) its exact limit while the
+//! rest is held.
+//!
+//! Ground truth is the mean of `--references` reference renders with independent seeds, and
+//! its own noise is measured, not assumed: the two half-means (odd and even seeds) differ by
+//! `2 x` the mean's standard error in expectation (each half has twice the mean's variance),
+//! so half their relative L2 is the truth's noise, reported beside every figure.
+//!
+//! The parts:
+//! - **compression**: the default (compressed) bake against the dense bake of the same trace;
+//! - **bake noise**: the dense bake against a dense bake with another seed, over sqrt 2 (the
+//!   Monte Carlo noise of one bake's tensors at the config's N1);
+//! - **T0's Haar truncation**: the dense bake against a dense bake keeping `--t0-terms` Haar
+//!   terms per row instead of the config's;
+//! - **the rest** (the last reflection's Tucker shading and specular split, the 6x16x16
+//!   visibility, I1's order-4 SH, per-vertex interpolation, the rasterizer's pixel centres):
+//!   the dense bake with the most terms against the truth; what the parts above do not
+//!   explain.
+//!
+//! A part's figure is the relative L2 (and mean ratio) of the image it changes, per region;
+//! a mean ratio away from 1 by more than the noise is a bias.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context as _, Result};
+use prt_bake::config::BakeConfig;
+use prt_bake::metrics::{region_error, relative_l2, RegionError};
+use prt_bake::progress::Silent;
+use prt_bake::run::load;
+use prt_bake::scene::Scene;
+
+use super::measure::{lit, map_intensity, reference, render, Light, Pixels, LIGHTS};
+use super::sweep::{self, Setting};
+use crate::util::{cpu_model, git_head, load_average, utc_now};
+
+/// Where a scene's section starts and ends in the report (one section per config, named by
+/// its folder: `<!-- bench budget gallery: begin -->`).
+fn markers(config: &Path) -> (String, String) {
+    let name = config
+        .parent()
+        .and_then(|p| p.file_name())
+        .map_or_else(|| "scene".to_string(), |n| n.to_string_lossy().into_owned());
+    (
+        format!("<!-- bench budget {name}: begin -->"),
+        format!("<!-- bench budget {name}: end -->"),
+    )
+}
+
+/// Arguments of `bench budget`.
+#[derive(clap::Args, Debug)]
+pub struct BudgetArgs {
+    /// The scene (a per-vertex config).
+    #[arg(long, default_value = "scenes/gallery/bake.toml")]
+    pub config: PathBuf,
+    /// Image side (square images from the config's camera).
+    #[arg(long, default_value_t = 128)]
+    pub size: u32,
+    /// Reference renders with independent seeds averaged into the ground truth (at least 2:
+    /// their halves measure its noise).
+    #[arg(long, default_value_t = 8)]
+    pub references: u32,
+    /// Samples per pixel of each reference render.
+    #[arg(long, default_value_t = 1024)]
+    pub reference_spp: u32,
+    /// Haar terms per T0 row of the bake that measures T0's truncation (24 576 keeps every
+    /// term: exact, and about 100 KB per row per vertex).
+    #[arg(long, default_value_t = 1536)]
+    pub t0_terms: u32,
+    /// The report whose budget section is replaced (appended when it has none); `-` prints
+    /// the section only.
+    #[arg(long, default_value = "docs/report-vertex.md")]
+    pub out: PathBuf,
+    /// Scratch folder for the bake files (removed after use).
+    #[arg(long, default_value = "target/report/budget")]
+    pub work_dir: PathBuf,
+}
+
+/// The regions of an image: every material the camera sees, then the background.
+struct Regions {
+    names: Vec<String>,
+    /// Per region, per pixel: inside.
+    masks: Vec<Vec<bool>>,
+}
+
+impl Regions {
+    fn of(scene: &Scene, size: u32) -> Regions {
+        let first = prt_bake::view::first_hit_materials(scene, size, size);
+        let mut names = Vec::new();
+        let mut masks = Vec::new();
+        for (m, mat) in scene.materials.iter().enumerate() {
+            let mask: Vec<bool> = first.iter().map(|f| *f == Some(m as u32)).collect();
+            if mask.iter().any(|&x| x) {
+                names.push(mat.name.clone());
+                masks.push(mask);
+            }
+        }
+        let background: Vec<bool> = first.iter().map(Option::is_none).collect();
+        if background.iter().any(|&x| x) {
+            names.push("background".into());
+            masks.push(background);
+        }
+        Regions { names, masks }
+    }
+
+    /// The whole image, then each region.
+    fn errors(&self, a: &[[f32; 3]], b: &[[f32; 3]]) -> Vec<RegionError> {
+        let all = vec![true; a.len()];
+        std::iter::once(&all)
+            .chain(&self.masks)
+            .map(|m| region_error(a, b, m))
+            .collect()
+    }
+}
+
+/// Ground truth under one light: the mean of the renders, and its noise per region (the
+/// whole image first).
+struct Truth {
+    mean: Pixels,
+    noise: Vec<RegionError>,
+}
+
+fn mean_of(images: &[Pixels]) -> Pixels {
+    let n = images.len().max(1) as f32;
+    (0..images[0].len())
+        .map(|i| {
+            let mut s = [0.0f32; 3];
+            for img in images {
+                for c in 0..3 {
+                    s[c] += img[i][c];
+                }
+            }
+            s.map(|v| v / n)
+        })
+        .collect()
+}
+
+fn truth(
+    args: &BudgetArgs,
+    config: &BakeConfig,
+    scene: &Scene,
+    light: &Light,
+    regions: &Regions,
+) -> Result<Truth> {
+    let k = args.references.max(2);
+    let mut renders = Vec::new();
+    for i in 0..k {
+        eprintln!(
+            "budget: reference {} of {k} under {} ({} spp)",
+            i + 1,
+            light.name,
+            args.reference_spp
+        );
+        // Seeds away from the bake's, so no stream is shared with it.
+        let seed = config.seed.wrapping_add(1_000_003 * (u64::from(i) + 1));
+        renders.push(reference(
+            config,
+            scene,
+            light,
+            args.size,
+            args.reference_spp,
+            seed,
+        )?);
+    }
+    let (odd, even): (Vec<_>, Vec<_>) = renders
+        .iter()
+        .cloned()
+        .enumerate()
+        .partition(|(i, _)| i % 2 == 1);
+    let odd: Vec<Pixels> = odd.into_iter().map(|(_, p)| p).collect();
+    let even: Vec<Pixels> = even.into_iter().map(|(_, p)| p).collect();
+    let mean = mean_of(&renders);
+    let noise = regions
+        .errors(&mean_of(&odd), &mean_of(&even))
+        .into_iter()
+        .map(|mut e| {
+            // Half the halves' difference: the mean's standard error (see the module
+            // documentation); the ratio's distance from 1 likewise.
+            e.relative_l2 *= 0.5;
+            e.mean_ratio = 1.0 + 0.5 * (e.mean_ratio - 1.0).abs();
+            e.squared_share *= 0.25;
+            e
+        })
+        .collect();
+    Ok(Truth { mean, noise })
+}
+
+/// The bakes, in order: defaults (compressed), dense (the same trace), dense with another
+/// seed, dense with more T0 terms.
+fn settings(args: &BudgetArgs) -> Vec<Setting> {
+    let defaults = Setting::defaults();
+    let dense = Setting {
+        label: "dense".into(),
+        compress: false,
+        ..Setting::defaults()
+    };
+    let noise = Setting::noise_floor();
+    let t0 = Setting {
+        label: format!("dense, {} T0 terms", args.t0_terms),
+        compress: false,
+        t0_terms: Some(args.t0_terms),
+        ..Setting::defaults()
+    };
+    vec![defaults, dense, noise, t0]
+}
+
+/// Runs the measurements and writes the section; returns it.
+pub fn run(args: &BudgetArgs) -> Result<String> {
+    if args.size == 0 {
+        bail!("--size must be at least 1");
+    }
+    let (config, scene) = load(&args.config, &Silent)?;
+    std::fs::create_dir_all(&args.work_dir)
+        .with_context(|| format!("creating {}", args.work_dir.display()))?;
+    let regions = Regions::of(&scene, args.size);
+    let truths = LIGHTS
+        .iter()
+        .map(|l| truth(args, &config, &scene, l, &regions))
+        .collect::<Result<Vec<_>>>()?;
+
+    let settings = settings(args);
+    let mut baked = sweep::bake_from_one_trace(
+        &config,
+        &scene,
+        &settings[..2],
+        &args.work_dir,
+        "budget",
+        false,
+    )?;
+    baked.extend(sweep::bake_each(
+        &config,
+        &scene,
+        &settings[2..],
+        &args.work_dir,
+        "budget-more",
+        false,
+    )?);
+    let intensity = map_intensity(&config);
+    // images[bake][light]
+    let mut images: Vec<Vec<Pixels>> = Vec::new();
+    for b in &baked {
+        let mut per_light = Vec::new();
+        for light in &LIGHTS {
+            per_light.push(render(&mut lit(&b.path, light, intensity)?, args.size)?.0);
+        }
+        images.push(per_light);
+        let _ = std::fs::remove_file(&b.path);
+    }
+
+    let section = section(args, &regions, &settings, &truths, &images);
+    if args.out.as_os_str() != "-" {
+        let (begin, end) = markers(&args.config);
+        crate::util::write_section(&args.out, &section, &begin, &end)?;
+    }
+    Ok(section)
+}
+
+fn pct(x: f64) -> String {
+    if x.is_nan() {
+        "-".into()
+    } else {
+        format!("{:.1} %", 100.0 * x)
+    }
+}
+
+fn ratio(x: f64) -> String {
+    if x.is_nan() {
+        "-".into()
+    } else {
+        format!("{x:.3}")
+    }
+}
+
+fn section(
+    args: &BudgetArgs,
+    regions: &Regions,
+    settings: &[Setting],
+    truths: &[Truth],
+    images: &[Vec<Pixels>],
+) -> String {
+    let (begin, end) = markers(&args.config);
+    let mut s = String::new();
+    let _ = writeln!(s, "{begin}");
+    let name = begin
+        .trim_start_matches("<!-- bench budget ")
+        .trim_end_matches(": begin -->")
+        .to_string();
+    let _ = writeln!(s, "### {name}\n");
+    let _ = writeln!(
+        s,
+        "Generated by `cargo run --release -p prt-bench -- budget --config {}` on {} ({}, \
+         load {}, commit {}). {}x{} images from the config's camera. Ground truth: the mean of \
+         {} reference renders of {} spp with independent seeds ({} spp in all); its noise \
+         (\"truth noise\") is half the distance between the means of the odd and the even \
+         renders, measured the same way per region. Regions are what each pixel's camera ray \
+         meets first. Each row's figures are relative L2 over the region (whole image first) \
+         and, in brackets, the region's mean over the truth's: a ratio away from 1 by more \
+         than the noise's is a bias. The background compares the runtime's lookup of the map at \
+         each pixel's centre with the reference's average over the pixel (oversampled): a lamp \
+         narrower than a pixel decides that region's mean. Method: \
+         `bench/src/vertex/budget.rs`.\n",
+        args.config.display(),
+        utc_now(),
+        cpu_model(),
+        load_average(),
+        git_head().unwrap_or_else(|| "unknown".into()),
+        args.size,
+        args.size,
+        args.references.max(2),
+        args.reference_spp,
+        args.references.max(2) as u64 * u64::from(args.reference_spp),
+    );
+    let header = |s: &mut String, first: &str| {
+        let _ = write!(s, "| {first} | whole image |");
+        for n in &regions.names {
+            let _ = write!(s, " {n} |");
+        }
+        let _ = writeln!(s);
+        let _ = write!(s, "| --- | ---: |");
+        for _ in &regions.names {
+            let _ = write!(s, " ---: |");
+        }
+        let _ = writeln!(s);
+    };
+    let row = |s: &mut String, label: &str, errs: &[RegionError], with_ratio: bool| {
+        let _ = write!(s, "| {label} |");
+        for e in errs {
+            if with_ratio {
+                let _ = write!(s, " {} ({}) |", pct(e.relative_l2), ratio(e.mean_ratio));
+            } else {
+                let _ = write!(s, " {} |", pct(e.relative_l2));
+            }
+        }
+        let _ = writeln!(s);
+    };
+    let _ = writeln!(
+        s,
+        "Pixels per region: {}.\n",
+        regions
+            .names
+            .iter()
+            .zip(&regions.masks)
+            .map(|(n, m)| format!("{n} {}", m.iter().filter(|&&x| x).count()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    let (defaults, dense, seed, t0) = (0, 1, 2, 3);
+    for (li, light) in LIGHTS.iter().enumerate() {
+        let truth = &truths[li];
+        let _ = writeln!(s, "#### {name}, {}\n", light.name);
+        header(&mut s, "against the truth");
+        row(&mut s, "truth noise", &truth.noise, true);
+        for (b, setting) in settings.iter().enumerate() {
+            row(
+                &mut s,
+                &setting.label,
+                &regions.errors(&images[b][li], &truth.mean),
+                true,
+            );
+        }
+        let _ = writeln!(s);
+        header(&mut s, "part (the image it changes)");
+        let part = |a: usize, b: usize| regions.errors(&images[a][li], &images[b][li]);
+        row(
+            &mut s,
+            "compression (defaults vs dense)",
+            &part(defaults, dense),
+            true,
+        );
+        let mut noise = part(seed, dense);
+        for e in &mut noise {
+            e.relative_l2 /= std::f64::consts::SQRT_2;
+        }
+        row(
+            &mut s,
+            "bake noise (dense vs seed + 1, / sqrt 2)",
+            &noise,
+            false,
+        );
+        row(
+            &mut s,
+            &format!("T0 truncation (dense vs {} terms)", args.t0_terms),
+            &part(dense, t0),
+            true,
+        );
+        row(
+            &mut s,
+            &format!("the rest ({} T0 terms vs truth)", args.t0_terms),
+            &regions.errors(&images[t0][li], &truth.mean),
+            true,
+        );
+        let whole = relative_l2(&images[defaults][li], &truth.mean);
+        let _ = writeln!(
+            s,
+            "\nThe defaults' whole-image error: {} against truth noise {}.\n",
+            pct(whole),
+            pct(truth.noise[0].relative_l2)
+        );
+    }
+    let _ = writeln!(s, "{end}");
+    s
+}
