@@ -195,6 +195,7 @@ fn check_bake(b: &Baked, setting: ViewSetting, bound: f64, wrong_edits: &[(&str,
         wrong_text.join(", ")
     );
     assert!(err <= bound, "{}: rel. L2 {err:.4} > {bound}", setting.name);
+    check_region_means(b, &setting, &image, &reference);
     for (what, e) in wrong {
         assert!(
             e > bound,
@@ -202,6 +203,68 @@ fn check_bake(b: &Baked, setting: ViewSetting, bound: f64, wrong_edits: &[(&str,
             setting.name
         );
     }
+}
+
+/// How far a region's mean may lie from the reference's, for every material that covers at
+/// least [`REGION_PIXELS`] of the image (what each pixel's camera ray meets first): a bias
+/// shows here however its error is spread. Diffuse regions: measured at most 3.9 % (the
+/// edited bunny under the studio map turned 120; floors at most 1.8 %); with T0's irradiance
+/// row kept only as the visible part (before the open-sky table) the floor was 7.2 % too dark
+/// under the studio map turned 90 and 4.9 % too bright turned 120, and this bound fails
+/// them. Glossy regions: the GGX sphere at alpha 0.25 under the studio map turned 120 is
+/// 10.9 % too dark, a defect of the last reflection's shading basis at that width left open
+/// (docs/report-vertex.md, "Error budget"); the bound keeps it from growing.
+const DIFFUSE_MEAN_BOUND: f64 = 0.045;
+const GLOSSY_MEAN_BOUND: f64 = 0.12;
+/// Pixels a region needs for its mean to be checked.
+const REGION_PIXELS: usize = 400;
+
+fn check_region_means(
+    b: &Baked,
+    setting: &ViewSetting,
+    image: &[[f32; 3]],
+    reference: &[[f32; 3]],
+) {
+    let scene = prt_tests::scene_for_setting(&b.scene, setting);
+    let first = prt_bake::view::first_hit_materials(&scene, setting.width, setting.height);
+    let mut text = Vec::new();
+    let mut failures = Vec::new();
+    for (m, mat) in scene.materials.iter().enumerate() {
+        let mask: Vec<bool> = first.iter().map(|f| *f == Some(m as u32)).collect();
+        let e = prt_bake::metrics::region_error(image, reference, &mask);
+        if e.pixels < REGION_PIXELS {
+            continue;
+        }
+        text.push(format!(
+            "{} {:.4} ({} px)",
+            mat.name, e.mean_ratio, e.pixels
+        ));
+        let bound = if mat.brdf.family == prt_bake::brdf::Family::Diffuse {
+            DIFFUSE_MEAN_BOUND
+        } else {
+            GLOSSY_MEAN_BOUND
+        };
+        let off = (e.mean_ratio - 1.0).abs();
+        if off > bound {
+            failures.push(format!(
+                "{}'s mean is {:.1} % off the reference's (bound {:.1} %)",
+                mat.name,
+                100.0 * off,
+                100.0 * bound
+            ));
+        }
+    }
+    eprintln!(
+        "{}: region means over the reference's: {}",
+        setting.name,
+        text.join(", ")
+    );
+    assert!(
+        failures.is_empty(),
+        "{}: {}",
+        setting.name,
+        failures.join("; ")
+    );
 }
 
 #[test]
