@@ -5,7 +5,8 @@
 
 use serde::Deserialize;
 
-use super::{Checker, ConfigError, Mode};
+use super::validate::Checker;
+use super::{ConfigError, Mode};
 
 /// The `[vertex]` table: settings of the per-vertex bake (`mode = "vertex"`; docs/vertex.md).
 /// Every key is optional. `spp` is N1 in vertex mode: the directions traced from each vertex
