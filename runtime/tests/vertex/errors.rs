@@ -94,7 +94,7 @@ fn group_t0_terms_are_read_and_older_schemas_still_open() {
     assert!(own.meta.t0_terms as usize > keep);
     let reference = relit(&padded, "padded.prtbake");
     assert!(relit(&own, "own.prtbake") == reference, "own count");
-    for version in [1, 2] {
+    for version in [1, 2, 3] {
         let mut old = padded.clone();
         old.meta.vertex_schema_version = version;
         let img = relit(&old, &format!("schema{version}.prtbake"));
@@ -236,6 +236,11 @@ fn each_corruption_is_refused_naming_the_tensor() {
                 b.groups_meta_t0_terms(1, fewer);
             },
             &["v1.t0.index", "shape"],
+        ),
+        (
+            "an open-sky flag that is neither 0 nor 1",
+            |b| b.groups[1].t0_open[2] = 2,
+            &["v1.t0.open", "flag 2", "vertex 2"],
         ),
         (
             "another schema version",
