@@ -436,6 +436,41 @@ pub fn matmul_tn(a: MatRef<'_, f64>, b: MatRef<'_, f64>) -> Mat<f64> {
     c
 }
 
+/// `G += A^T A` on the lower triangle of `g` only (its upper triangle is left as it was):
+/// half the work of [`matmul_tn`] for a Gram matrix. Call [`mirror_lower`] after the last sum.
+pub fn gram_lower_add(g: MatMut<'_, f64>, a: MatRef<'_, f64>) {
+    use faer::linalg::matmul::triangular::{matmul as tri_matmul, BlockStructure};
+    tri_matmul(
+        g,
+        BlockStructure::TriangularLower,
+        Accum::Add,
+        a.transpose(),
+        BlockStructure::Rectangular,
+        a,
+        BlockStructure::Rectangular,
+        1.0,
+        Par::Seq,
+    );
+    clear_simd_upper_state();
+}
+
+/// `A^T A`, computed on its lower triangle and mirrored ([`gram_lower_add`]).
+pub fn gram(a: MatRef<'_, f64>) -> Mat<f64> {
+    let mut g = Mat::<f64>::zeros(a.ncols(), a.ncols());
+    gram_lower_add(g.as_mut(), a);
+    mirror_lower(&mut g);
+    g
+}
+
+/// Copies the strict lower triangle of a square matrix onto its upper one.
+pub fn mirror_lower(g: &mut Mat<f64>) {
+    for j in 0..g.ncols() {
+        for i in 0..j {
+            g[(i, j)] = g[(j, i)];
+        }
+    }
+}
+
 /// `C = A B` (`accum` = [`Accum::Replace`]) or `C += A B` ([`Accum::Add`]) into a given
 /// matrix view, computed sequentially.
 pub fn matmul_into(c: MatMut<'_, f64>, accum: Accum, a: MatRef<'_, f64>, b: MatRef<'_, f64>) {

@@ -22,11 +22,16 @@
 //! run in parallel and are placed in order, so the result does not depend on the thread
 //! count. The dense block is read in chunks converted to f64, never copied whole.
 
-use faer::Mat;
+use std::ops::Range;
+
+use faer::{Accum, Mat};
 use prt_formats::clustered::CompressionSettings;
 use rayon::prelude::*;
 
-use crate::basis::linalg::{matmul, matmul_tn, sign_fixed_columns, sym_eig, EigMethod};
+use crate::basis::linalg::{
+    gram, gram_lower_add, matmul, matmul_into, matmul_tn, mirror_lower, sign_fixed_columns,
+    sym_eig, EigMethod,
+};
 
 use super::error::VertexError;
 
@@ -112,25 +117,73 @@ pub(crate) fn budget(target: f32, sq_norm: f64, sq_noise: f64) -> f64 {
     f64::from(target).powi(2) * (sq_norm - noise) + noise
 }
 
+/// Element Gram matrices of the clusters a unit has been compressed as, by range of rows. The
+/// rows of a Gram matrix add, so a unit's is the sum of its halves': the split search
+/// (`cluster_choice.rs`), which tries the halves first and then the whole unit, pays for the
+/// largest product of the compression once. The sums are taken in a fixed order, so the
+/// result does not depend on the thread count.
+#[derive(Default)]
+pub(crate) struct ElementGrams {
+    known: Vec<(Range<usize>, Mat<f64>)>,
+}
+
+impl ElementGrams {
+    /// The Gram matrix of `range` summed from known ones that tile it exactly (the longest
+    /// known piece at each step), or None.
+    fn get(&self, range: &Range<usize>) -> Option<Mat<f64>> {
+        let mut at = range.start;
+        let mut sum: Option<Mat<f64>> = None;
+        while at < range.end {
+            let (r, g) = self
+                .known
+                .iter()
+                .filter(|(r, _)| r.start == at && r.end <= range.end && r.end > at)
+                .max_by_key(|(r, _)| r.end)?;
+            sum = Some(match sum {
+                None => g.clone(),
+                Some(s) => s + g,
+            });
+            at = r.end;
+        }
+        sum
+    }
+
+    fn insert(&mut self, range: Range<usize>, gram: Mat<f64>) {
+        if !self.known.iter().any(|(r, _)| *r == range) {
+            self.known.push((range, gram));
+        }
+    }
+}
+
 /// Compresses the clusters `ranges` (ranges of rows of `t`, `[V][bins][width]` f32) with the
-/// noise energy of each row in `noise`; clusters in parallel, placed in order.
+/// noise energy of each row in `noise`; clusters in parallel, placed in order. Element Gram
+/// matrices are taken from `grams` where it can sum them, and the new ones are added to it.
 pub(crate) fn compress_clusters(
     t: &[f32],
     bins: usize,
     width: usize,
-    ranges: &[std::ops::Range<usize>],
+    ranges: &[Range<usize>],
     noise: &[f64],
     settings: &CompressionSettings,
+    grams: &mut ElementGrams,
 ) -> Result<Vec<ClusterTucker>, VertexError> {
     let row = bins * width;
-    ranges
+    let known: Vec<Option<Mat<f64>>> = ranges.iter().map(|r| grams.get(r)).collect();
+    let done: Vec<(ClusterTucker, Mat<f64>)> = ranges
         .par_iter()
-        .map(|r| {
+        .zip(known)
+        .map(|(r, gram)| {
             let block = &t[r.start * row..r.end * row];
             let sq_noise: f64 = noise[r.clone()].iter().sum();
-            tucker_block(block, r.len(), bins, width, sq_noise, settings)
+            tucker_block(block, r.len(), bins, width, sq_noise, settings, gram)
         })
-        .collect()
+        .collect::<Result<_, _>>()?;
+    let mut out = Vec::with_capacity(done.len());
+    for (r, (c, g)) in ranges.iter().zip(done) {
+        grams.insert(r.clone(), g);
+        out.push(c);
+    }
+    Ok(out)
 }
 
 /// The fewest leading eigenvalues (nonincreasing `vals`) whose discarded rest is at most
@@ -172,7 +225,8 @@ fn leading(
 /// be hundreds of MB for a large unit with many slots).
 const CHUNK_ROWS: usize = 1024;
 
-/// ST-HOSVD of one cluster's block `x` (`[n][bins][width]`), see the module documentation.
+/// ST-HOSVD of one cluster's block `x` (`[n][bins][width]`), see the module documentation;
+/// with its element Gram matrix when known (`known_gram`), which it returns.
 fn tucker_block(
     x: &[f32],
     n: usize,
@@ -180,7 +234,8 @@ fn tucker_block(
     width: usize,
     sq_noise: f64,
     s: &CompressionSettings,
-) -> Result<ClusterTucker, VertexError> {
+    known_gram: Option<Mat<f64>>,
+) -> Result<(ClusterTucker, Mat<f64>), VertexError> {
     let sq_norm: f64 = x.iter().map(|&v| f64::from(v) * f64::from(v)).sum();
     let mut figures = ClusterFigures {
         sq_norm,
@@ -189,41 +244,79 @@ fn tucker_block(
     };
     if n == 0 || bins == 0 || width == 0 {
         // Nothing to store (a group no slot sends light to has no T1 elements).
-        return Ok(ClusterTucker {
+        let none = ClusterTucker {
             vertices: n,
             ranks: [0, 0, 0],
             factors: Vec::new(),
             core: Vec::new(),
             vertex: Vec::new(),
             figures,
-        });
+        };
+        return Ok((none, Mat::zeros(width, width)));
     }
     let budget = budget(s.error_target, sq_norm, figures.sq_noise);
     let rows = n * bins;
-    // Element mode: rows (v, l), columns w; the Gram matrix summed over chunks of rows.
-    let chunk = |start: usize| {
-        let end = (start + CHUNK_ROWS).min(rows);
-        Mat::from_fn(end - start, width, |i, j| {
-            f64::from(x[(start + i) * width + j])
-        })
-    };
-    let mut gw = Mat::<f64>::zeros(width, width);
-    for start in (0..rows).step_by(CHUNK_ROWS) {
-        let c = chunk(start);
-        gw += matmul_tn(c.as_ref(), c.as_ref());
+    // Element mode: rows (v, l), columns w. An element is a slot and SH band at the vertex:
+    // the columns of slots no path of the cluster reaches are zero in every row (much of a
+    // ground cluster's far from the editable objects), so the products below run over the
+    // live columns only; the dead ones are zero rows and columns of the Gram matrix, which
+    // `sym_eig` deflates (eigenvalue 0), and zero columns of X, so `X ue` needs only the live
+    // rows of `ue`.
+    let mut is_live = vec![false; width];
+    for row in x.chunks_exact(width) {
+        for (l, &v) in is_live.iter_mut().zip(row) {
+            *l |= v != 0.0;
+        }
     }
+    let live: Vec<usize> = (0..width).filter(|&j| is_live[j]).collect();
+    // A chunk of rows of X on its live columns, transposed: column-major, so each of its
+    // columns is one row of X, read and written contiguously.
+    let chunk_t = |start: usize| {
+        let end = (start + CHUNK_ROWS).min(rows);
+        let mut ct = Mat::<f64>::zeros(live.len(), end - start);
+        for i in 0..end - start {
+            let row = &x[(start + i) * width..(start + i + 1) * width];
+            for (c, &j) in ct.col_as_slice_mut(i).iter_mut().zip(&live) {
+                *c = f64::from(row[j]);
+            }
+        }
+        ct
+    };
+    // The Gram matrix, the compression's largest product, unless the caller knows it: summed
+    // over chunks of rows on its lower triangle (it is symmetric), then mirrored.
+    let gw = match known_gram {
+        Some(g) => g,
+        None => {
+            let mut g_live = Mat::<f64>::zeros(live.len(), live.len());
+            if !live.is_empty() {
+                for start in (0..rows).step_by(CHUNK_ROWS) {
+                    gram_lower_add(g_live.as_mut(), chunk_t(start).as_ref().transpose());
+                }
+            }
+            mirror_lower(&mut g_live);
+            let mut g = Mat::<f64>::zeros(width, width);
+            for (a, &i) in live.iter().enumerate() {
+                for (b, &j) in live.iter().enumerate() {
+                    g[(i, j)] = g_live[(a, b)];
+                }
+            }
+            g
+        }
+    };
     let (ue, d_e, cap_e, fb_e) = leading(&gw, budget / 3.0, s.max_element_rank as usize)?;
-    drop(gw);
     let r = ue.ncols();
     // y = X ue, (v, l) x r, chunk by chunk.
     let mut y = Mat::<f64>::zeros(rows, r);
-    for start in (0..rows).step_by(CHUNK_ROWS) {
-        let c = chunk(start);
-        let part = matmul(c.as_ref(), ue.as_ref());
-        for i in 0..part.nrows() {
-            for k in 0..r {
-                y[(start + i, k)] = part[(i, k)];
-            }
+    if !live.is_empty() {
+        let ue_live = Mat::from_fn(live.len(), r, |k, c| ue[(live[k], c)]);
+        for start in (0..rows).step_by(CHUNK_ROWS) {
+            let ct = chunk_t(start);
+            matmul_into(
+                y.as_mut().subrows_mut(start, ct.ncols()),
+                Accum::Replace,
+                ct.as_ref().transpose(),
+                ue_live.as_ref(),
+            );
         }
     }
     // Light mode: rows (v, k), columns l.
@@ -231,7 +324,7 @@ fn tucker_block(
         y[((i / r.max(1)) * bins + l, i % r.max(1))]
     });
     drop(y);
-    let gl = matmul_tn(yl.as_ref(), yl.as_ref());
+    let gl = gram(yl.as_ref());
     let (ul, d_l, cap_l, fb_l) = leading(
         &gl,
         (2.0 * budget / 3.0 - d_e).max(0.0),
@@ -243,7 +336,7 @@ fn tucker_block(
     // Vertex mode: rows (a, k) of the core's order, columns v.
     let zv = Mat::from_fn(a * r, n, |i, v| z[(v * r + i % r.max(1), i / r.max(1))]);
     drop(z);
-    let gv = matmul_tn(zv.as_ref(), zv.as_ref());
+    let gv = gram(zv.as_ref());
     let (uv, d_v, cap_v, fb_v) = leading(
         &gv,
         (budget - d_e - d_l).max(0.0),
@@ -270,14 +363,17 @@ fn tucker_block(
     figures.sq_error = d_e + d_l + d_v;
     figures.capped = [cap_l, cap_e, cap_v];
     figures.fallbacks = u32::from(fb_e) + u32::from(fb_l) + u32::from(fb_v);
-    Ok(ClusterTucker {
-        vertices: n,
-        ranks: [a, r, b],
-        factors,
-        core: core_flat,
-        vertex,
-        figures,
-    })
+    Ok((
+        ClusterTucker {
+            vertices: n,
+            ranks: [a, r, b],
+            factors,
+            core: core_flat,
+            vertex,
+            figures,
+        },
+        gw,
+    ))
 }
 
 #[cfg(test)]
@@ -353,9 +449,17 @@ mod tests {
         s: &CompressionSettings,
     ) -> ClusterTucker {
         let per_row = vec![noise_sq / n as f64; n];
-        compress_clusters(t, bins, width, &[0..n], &per_row, s)
-            .unwrap()
-            .remove(0)
+        compress_clusters(
+            t,
+            bins,
+            width,
+            &[0..n],
+            &per_row,
+            s,
+            &mut ElementGrams::default(),
+        )
+        .unwrap()
+        .remove(0)
     }
 
     #[test]
@@ -370,6 +474,7 @@ mod tests {
             &[0..3, 3..7],
             &[0.0; 7],
             &settings(0.0, [99, 99, 99]),
+            &mut ElementGrams::default(),
         )
         .unwrap();
         let mut back = expand(&c[0], 3, bins, width);
@@ -464,5 +569,86 @@ mod tests {
         assert_eq!(budget(0.1, 2.0, 5.0), 2.0);
         assert_eq!(budget(0.0, 2.0, 1.0), 0.0, "a zero target keeps every rank");
         assert!((budget(0.1, 2.0, 1.0) - 1.01).abs() < 1e-8);
+    }
+
+    #[test]
+    fn dead_elements_change_nothing_and_a_unit_sums_its_halves_gram_matrices() {
+        // A low-rank block on 5 elements, spread over 12 columns of which 7 are zero (slots
+        // no path of the cluster reaches).
+        let (n, bins, small) = (10, 8, 5);
+        let cols = [1usize, 4, 5, 9, 11];
+        let width = 12;
+        let f = noise(2 * bins, 21);
+        let g = noise(2 * small, 22);
+        let p = noise(2 * n, 23);
+        let e = noise(n * bins * small, 24);
+        let mut packed = Vec::new();
+        for v in 0..n {
+            for l in 0..bins {
+                for w in 0..small {
+                    let s: f32 = (0..2)
+                        .map(|q| p[2 * v + q] * f[2 * l + q] * g[2 * w + q])
+                        .sum();
+                    packed.push(s + 0.01 * e[(v * bins + l) * small + w]);
+                }
+            }
+        }
+        let mut spread = vec![0.0f32; n * bins * width];
+        for row in 0..n * bins {
+            for (k, &c) in cols.iter().enumerate() {
+                spread[row * width + c] = packed[row * small + k];
+            }
+        }
+        for target in [0.0f32, 0.05] {
+            let st = settings(target, [99, 99, 99]);
+            let a = one(&packed, n, bins, small, 0.0, &st);
+            let b = one(&spread, n, bins, width, 0.0, &st);
+            assert_eq!(a.ranks, b.ranks, "target {target}");
+            assert!((a.figures.sq_error - b.figures.sq_error).abs() <= 1e-9 * a.figures.sq_norm);
+            // The same model, its element factor zero on the dead columns.
+            let back = expand(&b, n, bins, width);
+            let mut dense = expand(&a, n, bins, small).into_iter();
+            for row in back.chunks_exact(width) {
+                for (c, &v) in row.iter().enumerate() {
+                    let want = if cols.contains(&c) {
+                        dense.next().unwrap()
+                    } else {
+                        0.0
+                    };
+                    assert!(
+                        (v - want).abs() < 1e-5,
+                        "target {target}: column {c}: {v} vs {want}"
+                    );
+                }
+            }
+        }
+        // The whole block's Gram matrix summed from its halves' equals the one of its rows.
+        let st = settings(0.05, [99, 99, 99]);
+        let per_row = vec![0.0; n];
+        let mut halves = ElementGrams::default();
+        compress_clusters(
+            &spread,
+            bins,
+            width,
+            &[0..4, 4..n],
+            &per_row,
+            &st,
+            &mut halves,
+        )
+        .unwrap();
+        let mut whole = ElementGrams::default();
+        compress_clusters(&spread, bins, width, &[0..n], &per_row, &st, &mut whole).unwrap();
+        let (from_halves, direct) = (halves.get(&(0..n)).unwrap(), whole.get(&(0..n)).unwrap());
+        for i in 0..width {
+            for j in 0..width {
+                let (x, y) = (from_halves[(i, j)], direct[(i, j)]);
+                assert!(
+                    (x - y).abs() <= 1e-12 * direct[(i, i)].abs().max(1.0),
+                    "({i}, {j})"
+                );
+                assert_eq!(x, from_halves[(j, i)], "symmetric");
+            }
+        }
+        assert!(halves.get(&(0..3)).is_none() && halves.get(&(2..n)).is_none());
     }
 }

@@ -18,7 +18,7 @@ use rayon::prelude::*;
 use crate::shard::{Piece, PieceOut, ShardError};
 
 use super::cluster_choice::{next_parts, pick, PartsCandidate};
-use super::compress::{compress_clusters, ClusterFigures, ClusterTucker};
+use super::compress::{compress_clusters, ClusterFigures, ClusterTucker, ElementGrams};
 use super::error::VertexError;
 use super::plan::{VertexPlan, BLOCK_VERTICES};
 use super::t0_choice::energy_at;
@@ -314,10 +314,20 @@ pub(crate) fn compress_unit(
     let n = unit.vertices.len();
     let mut tried: Vec<PartsCandidate> = Vec::new();
     let mut best: Option<(usize, Vec<ClusterTucker>, Option<Vec<ClusterTucker>>)> = None;
+    // The splits tried share their element Gram matrices (the whole unit's is its halves').
+    let (mut grams1, mut grams2) = (ElementGrams::default(), ElementGrams::default());
     while let Some(parts) = next_parts(settings.cluster_vertices, n, &tried, settings.error_target)
     {
         let ranges = unit.clusters(parts);
-        let c1 = compress_clusters(&traced.t1, b1, w1, &ranges, &traced.t1_noise, settings)?;
+        let c1 = compress_clusters(
+            &traced.t1,
+            b1,
+            w1,
+            &ranges,
+            &traced.t1_noise,
+            settings,
+            &mut grams1,
+        )?;
         let c2 = if three {
             Some(compress_clusters(
                 &traced.t2,
@@ -326,6 +336,7 @@ pub(crate) fn compress_unit(
                 &ranges,
                 &traced.t2_noise,
                 settings,
+                &mut grams2,
             )?)
         } else {
             None
