@@ -131,8 +131,15 @@ pub fn write_section(report: &Path, section: &str, begin: &str, end: &str) -> an
         }
         _ => format!("{}\n\n{}", text.trim_end(), section),
     };
-    let tmp = report.with_extension("md.tmp");
-    std::fs::write(&tmp, new)?;
-    std::fs::rename(&tmp, report)?;
+    write_atomically(report, new.as_bytes())
+}
+
+/// Writes `bytes` to `path` through a temporary file beside it and a rename, so a reader never
+/// sees half a file.
+pub fn write_atomically(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    let mut tmp = path.as_os_str().to_owned();
+    tmp.push(".tmp");
+    std::fs::write(&tmp, bytes)?;
+    std::fs::rename(&tmp, path)?;
     Ok(())
 }

@@ -49,13 +49,20 @@ pub struct ScaleArgs {
     /// The report whose scale section is replaced (appended when it has none).
     #[arg(long, default_value = "docs/report-vertex.md")]
     pub out: PathBuf,
-    /// Scratch folder for the scenes and bake files (emptied after each bake).
+    /// Scratch folder for the scenes and bake files (emptied after each bake) and for each
+    /// measurement's figures (`yard-<vertices>-n1-<spp>.json`, `shards-...json`).
     #[arg(long, default_value = "target/report/scale")]
     pub work_dir: PathBuf,
+    /// Take a measurement from the work folder when an earlier run left its figures there
+    /// (same vertex count, shard count and N1) instead of baking again: a 1M-vertex bake
+    /// takes over an hour, so the rows can be measured one run at a time. Each row says when
+    /// and at which commit it was measured.
+    #[arg(long)]
+    pub reuse: bool,
 }
 
-/// One bake's figures from its `--json`.
-#[derive(Clone, Debug)]
+/// One bake's figures from its `--json`, and when and where they were measured.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 struct Baked {
     vertices: u64,
     loaded: u64,
@@ -64,6 +71,47 @@ struct Baked {
     peak_bytes: u64,
     estimated_bytes: u64,
     file_bytes: u64,
+    /// UTC time, commit and load average when the bake finished.
+    measured: String,
+}
+
+/// The shard balance of one shard count: each shard's time, and whether the merge equals the
+/// unsharded bake.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+struct Balance {
+    shards: u32,
+    times: Vec<f64>,
+    identical: bool,
+    measured: String,
+}
+
+fn measured_now() -> String {
+    format!(
+        "{}, commit {}, load {}",
+        utc_now(),
+        git_head().unwrap_or_else(|| "unknown".into()),
+        load_average()
+    )
+}
+
+/// Figures an earlier run left at `path` (with `--reuse`), or what `measure` gives, saved
+/// there for a later run.
+fn cached<T: serde::Serialize + serde::de::DeserializeOwned>(
+    path: &Path,
+    reuse: bool,
+    measure: impl FnOnce() -> Result<T>,
+) -> Result<T> {
+    if reuse {
+        if let Ok(bytes) = std::fs::read(path) {
+            let t = serde_json::from_slice(&bytes)
+                .with_context(|| format!("reading earlier figures {}", path.display()))?;
+            eprintln!("bench scale: reusing {}", path.display());
+            return Ok(t);
+        }
+    }
+    let t = measure()?;
+    crate::util::write_atomically(path, serde_json::to_string_pretty(&t)?.as_bytes())?;
+    Ok(t)
 }
 
 /// The `bake` binary beside this one (`cargo build --release` builds both).
@@ -118,6 +166,7 @@ fn run_bake(bake: &Path, config: &Path, out: &Path, spp: u32, extra: &[&str]) ->
         peak_bytes: u("peak_resident_bytes"),
         estimated_bytes: u("estimated_bytes"),
         file_bytes: u("file_bytes"),
+        measured: measured_now(),
     })
 }
 
@@ -133,11 +182,16 @@ pub fn run(args: &ScaleArgs) -> Result<String> {
     std::fs::create_dir_all(&args.work_dir)?;
     let mut rows: Vec<Baked> = Vec::new();
     for &v in &args.vertices {
+        let figures = args.work_dir.join(format!("yard-{v}-n1-{}.json", args.spp));
         let dir = args.work_dir.join(format!("yard-{v}"));
-        let config = yard(v).write(&dir, &env)?;
-        let out = dir.join("yard.prtbake");
-        eprintln!("bench scale: baking about {v} vertices");
-        let b = run_bake(&bake, &config, &out, args.spp, &[])?;
+        let b = cached(&figures, args.reuse, || {
+            let config = yard(v).write(&dir, &env)?;
+            let out = dir.join("yard.prtbake");
+            eprintln!("bench scale: baking about {v} vertices");
+            let b = run_bake(&bake, &config, &out, args.spp, &[]);
+            let _ = std::fs::remove_dir_all(&dir);
+            b
+        })?;
         eprintln!(
             "  {} vertices in {:.1} s, peak {} (estimate {})",
             b.vertices,
@@ -146,43 +200,21 @@ pub fn run(args: &ScaleArgs) -> Result<String> {
             gb(b.estimated_bytes)
         );
         rows.push(b);
-        let _ = std::fs::remove_dir_all(&dir);
     }
 
-    let mut balance: Vec<(u32, Vec<f64>, bool)> = Vec::new();
+    let mut balance: Vec<Balance> = Vec::new();
     for &n in &args.shards {
+        let figures = args.work_dir.join(format!(
+            "shards-{n}-of-{}-n1-{}.json",
+            args.shard_vertices, args.spp
+        ));
         let dir = args.work_dir.join(format!("shards-{n}"));
-        let config = yard(args.shard_vertices).write(&dir, &env)?;
-        let whole = dir.join("whole.prtbake");
-        run_bake(&bake, &config, &whole, args.spp, &[])?;
-        let out = dir.join("sharded.prtbake");
-        let mut times = Vec::new();
-        let mut files = Vec::new();
-        for i in 0..n {
-            eprintln!("bench scale: shard {i}/{n}");
-            let b = run_bake(
-                &bake,
-                &config,
-                &out,
-                args.spp,
-                &["--shard", &format!("{i}/{n}")],
-            )?;
-            times.push(b.seconds);
-            files.push(PathBuf::from(format!("{}.shard-{i}-of-{n}", out.display())));
-        }
-        let o = Command::new(&bake)
-            .arg("merge")
-            .args(&files)
-            .arg("--out")
-            .arg(&out)
-            .arg("--quiet")
-            .output()?;
-        if !o.status.success() {
-            bail!("merge failed: {}", String::from_utf8_lossy(&o.stderr));
-        }
-        let identical = std::fs::read(&out)? == std::fs::read(&whole)?;
-        balance.push((n, times, identical));
-        let _ = std::fs::remove_dir_all(&dir);
+        let b = cached(&figures, args.reuse, || {
+            let b = shard_balance(&bake, &dir, &env, args, n);
+            let _ = std::fs::remove_dir_all(&dir);
+            b
+        })?;
+        balance.push(b);
     }
 
     let section = section(args, &rows, &balance);
@@ -190,14 +222,55 @@ pub fn run(args: &ScaleArgs) -> Result<String> {
     Ok(section)
 }
 
-fn section(args: &ScaleArgs, rows: &[Baked], balance: &[(u32, Vec<f64>, bool)]) -> String {
+/// Bakes a yard of `args.shard_vertices` whole and as `n` shards one after another, merges
+/// the shards and compares the merge with the whole.
+fn shard_balance(bake: &Path, dir: &Path, env: &Path, args: &ScaleArgs, n: u32) -> Result<Balance> {
+    let config = yard(args.shard_vertices).write(dir, env)?;
+    let whole = dir.join("whole.prtbake");
+    run_bake(bake, &config, &whole, args.spp, &[])?;
+    let out = dir.join("sharded.prtbake");
+    let mut times = Vec::new();
+    let mut files = Vec::new();
+    for i in 0..n {
+        eprintln!("bench scale: shard {i}/{n}");
+        let b = run_bake(
+            bake,
+            &config,
+            &out,
+            args.spp,
+            &["--shard", &format!("{i}/{n}")],
+        )?;
+        times.push(b.seconds);
+        files.push(PathBuf::from(format!("{}.shard-{i}-of-{n}", out.display())));
+    }
+    let o = Command::new(bake)
+        .arg("merge")
+        .args(&files)
+        .arg("--out")
+        .arg(&out)
+        .arg("--quiet")
+        .output()?;
+    if !o.status.success() {
+        bail!("merge failed: {}", String::from_utf8_lossy(&o.stderr));
+    }
+    let identical = std::fs::read(&out)? == std::fs::read(&whole)?;
+    Ok(Balance {
+        shards: n,
+        times,
+        identical,
+        measured: measured_now(),
+    })
+}
+
+fn section(args: &ScaleArgs, rows: &[Baked], balance: &[Balance]) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "{BEGIN}");
     let _ = writeln!(s, "## Scale\n");
     let _ = writeln!(
         s,
         "Generated by `cargo run --release -p prt-bench -- scale` on {} ({}, load {}, \
-         commit {}). Yards (`prt_bake::testing::Yard`: the small yard's editable GGX sphere, \
+         commit {}; with `--reuse`, rows an earlier run measured are taken from its figures, \
+         each row says when). Yards (`prt_bake::testing::Yard`: the small yard's editable GGX sphere, \
          Blinn-Phong torus and box on a ground grid grown to the vertex count) under \
          `{}`, three reflections, compressed at the defaults, N1 = {} (the default is 64: \
          time grows in proportion, memory does not). Each bake is the `bake` binary on its \
@@ -212,13 +285,13 @@ fn section(args: &ScaleArgs, rows: &[Baked], balance: &[(u32, Vec<f64>, bool)]) 
     );
     let _ = writeln!(
         s,
-        "| vertices | loaded | bake | trace | per 1K vertices | peak resident | estimate | file |"
+        "| vertices | loaded | bake | trace | per 1K vertices | peak resident | estimate | file | measured |"
     );
-    let _ = writeln!(s, "|---:|---:|---:|---:|---:|---:|---:|---:|");
+    let _ = writeln!(s, "|---:|---:|---:|---:|---:|---:|---:|---:|---|");
     for b in rows {
         let _ = writeln!(
             s,
-            "| {} | {} | {:.1} s | {:.1} s | {:.3} s | {} | {} | {:.1} MB |",
+            "| {} | {} | {:.1} s | {:.1} s | {:.3} s | {} | {} | {:.1} MB | {} |",
             b.vertices,
             b.loaded,
             b.seconds,
@@ -226,7 +299,8 @@ fn section(args: &ScaleArgs, rows: &[Baked], balance: &[(u32, Vec<f64>, bool)]) 
             b.seconds / (b.vertices.max(1) as f64 / 1000.0),
             gb(b.peak_bytes),
             gb(b.estimated_bytes),
-            b.file_bytes as f64 / 1e6
+            b.file_bytes as f64 / 1e6,
+            b.measured
         );
     }
     if let (Some(first), Some(last)) = (rows.first(), rows.last()) {
@@ -249,17 +323,24 @@ fn section(args: &ScaleArgs, rows: &[Baked], balance: &[(u32, Vec<f64>, bool)]) 
         );
         let _ = writeln!(
             s,
-            "| shards | mean | slowest | slowest / mean | merged = unsharded |"
+            "| shards | mean | slowest | slowest / mean | merged = unsharded | measured |"
         );
-        let _ = writeln!(s, "|---:|---:|---:|---:|:---:|");
-        for (n, t, same) in balance {
+        let _ = writeln!(s, "|---:|---:|---:|---:|:---:|---|");
+        for b in balance {
+            let t = &b.times;
             let mean = t.iter().sum::<f64>() / t.len().max(1) as f64;
             let max = t.iter().cloned().fold(0.0, f64::max);
             let _ = writeln!(
                 s,
-                "| {n} | {mean:.1} s | {max:.1} s | {:.2} | {} |",
+                "| {} | {mean:.1} s | {max:.1} s | {:.2} | {} | {} |",
+                b.shards,
                 max / mean.max(1e-9),
-                if *same { "byte-identical" } else { "DIFFERS" }
+                if b.identical {
+                    "byte-identical"
+                } else {
+                    "DIFFERS"
+                },
+                b.measured
             );
         }
     }
