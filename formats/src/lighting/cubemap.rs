@@ -75,9 +75,10 @@ impl Face {
     }
 }
 
-/// The unnormalized direction of face coordinates `(a, b) = (2s - 1, 2t - 1)`.
+/// The unnormalized direction of face coordinates `(a, b) = (2s - 1, 2t - 1)` (the inverse of
+/// [`direction_to_face_st`] on the face; beyond `[-1, 1]` the face's plane continued).
 #[inline]
-fn face_ab_to_vector(face: Face, a: f64, b: f64) -> [f64; 3] {
+pub fn face_ab_to_vector(face: Face, a: f64, b: f64) -> [f64; 3] {
     match face {
         Face::PosX => [1.0, -b, -a],
         Face::NegX => [-1.0, -b, a],
@@ -497,33 +498,11 @@ impl CubeMap {
     /// texel too) and convert it once.
     #[inline(always)]
     pub fn lookup_bilinear_face_st(&self, face: Face, s: f64, t: f64) -> [f32; 3] {
-        let n = self.size;
-        let nf = n as f64;
-        // Texel centres sit at integers of fx, fy; both lie in [-0.5, n - 0.5].
-        let (fx, fy) = (s * nf - 0.5, t * nf - 0.5);
-        let (x0, y0) = (fx.floor(), fy.floor());
-        let (tx, ty) = (fx - x0, fy - y0);
-        let (x0, y0) = (x0 as i64, y0 as i64);
-        let inside = |k: i64| k >= 0 && k < n as i64;
         let mut out = [0.0f64; 3];
-        for (di, dj, w) in [
-            (0, 0, (1.0 - tx) * (1.0 - ty)),
-            (1, 0, tx * (1.0 - ty)),
-            (0, 1, (1.0 - tx) * ty),
-            (1, 1, tx * ty),
-        ] {
+        for (k, w) in bilinear_taps(self.size, face, s, t) {
             if w == 0.0 {
                 continue;
             }
-            let (i, j) = (x0 + di, y0 + dj);
-            let k = if inside(i) && inside(j) {
-                texel_index(n, face, i as usize, j as usize)
-            } else {
-                let a = 2.0 * (i as f64 + 0.5) / nf - 1.0;
-                let b = 2.0 * (j as f64 + 0.5) / nf - 1.0;
-                let (f2, i2, j2) = direction_to_texel(n, face_ab_to_vector(face, a, b));
-                texel_index(n, f2, i2, j2)
-            };
             let v = self.texels[k];
             for c in 0..3 {
                 out[c] += w * v[c] as f64;
@@ -531,6 +510,41 @@ impl CubeMap {
         }
         out.map(|v| v as f32)
     }
+}
+
+/// The four texels (indices per [`texel_index`]) and weights of the bilinear interpolation
+/// between texel centres of a cube of side `size` at `(face, s, t)` (from
+/// [`direction_to_face_st`]), continued across face edges as [`CubeMap::lookup_bilinear`]
+/// describes. The weights sum to 1. For any per-texel data laid out like a cube map (the
+/// per-vertex visibility cubes, for one).
+#[inline(always)]
+pub fn bilinear_taps(size: usize, face: Face, s: f64, t: f64) -> [(usize, f64); 4] {
+    let n = size;
+    let nf = n as f64;
+    // Texel centres sit at integers of fx, fy; both lie in [-0.5, n - 0.5].
+    let (fx, fy) = (s * nf - 0.5, t * nf - 0.5);
+    let (x0, y0) = (fx.floor(), fy.floor());
+    let (tx, ty) = (fx - x0, fy - y0);
+    let (x0, y0) = (x0 as i64, y0 as i64);
+    let inside = |k: i64| k >= 0 && k < n as i64;
+    [
+        (0, 0, (1.0 - tx) * (1.0 - ty)),
+        (1, 0, tx * (1.0 - ty)),
+        (0, 1, (1.0 - tx) * ty),
+        (1, 1, tx * ty),
+    ]
+    .map(|(di, dj, w)| {
+        let (i, j) = (x0 + di, y0 + dj);
+        let k = if inside(i) && inside(j) {
+            texel_index(n, face, i as usize, j as usize)
+        } else {
+            let a = 2.0 * (i as f64 + 0.5) / nf - 1.0;
+            let b = 2.0 * (j as f64 + 0.5) / nf - 1.0;
+            let (f2, i2, j2) = direction_to_texel(n, face_ab_to_vector(face, a, b));
+            texel_index(n, f2, i2, j2)
+        };
+        (k, w)
+    })
 }
 
 /// The sub-sample count per side of a cube texel when resampling a `width x height` lat-long

@@ -273,22 +273,49 @@ fn face_ab_to_vector(face: u32, a: f32, b: f32) -> vec3<f32> {
     }
 }
 
-// Cube c's texel (i, j) of face f, where (i, j) may lie one texel off the face: then the
-// texel of the neighbouring face holding that point (CubeMap::lookup_bilinear_face_st).
-fn cube_texel(c: u32, n: u32, f: u32, i: i32, j: i32) -> vec3<f32> {
-    var face = f;
-    var x = i;
-    var y = j;
+// Texel (i, j) of face f of a cube of side n as (face, x, y), where (i, j) may lie one texel
+// off the face: then the texel of the neighbouring face holding that point
+// (prt_formats::lighting::cubemap::bilinear_taps).
+fn wrapped_texel(n: u32, f: u32, i: i32, j: i32) -> vec3<u32> {
     if i < 0 || j < 0 || i >= i32(n) || j >= i32(n) {
         let nf = f32(n);
         let a = 2.0 * (f32(i) + 0.5) / nf - 1.0;
         let b = 2.0 * (f32(j) + 0.5) / nf - 1.0;
         let at = face_st(face_ab_to_vector(f, a, b));
-        face = at.face;
-        x = i32(min(u32(at.s * nf), n - 1u));
-        y = i32(min(u32(at.t * nf), n - 1u));
+        return vec3<u32>(at.face, min(u32(at.s * nf), n - 1u), min(u32(at.t * nf), n - 1u));
     }
-    return textureLoad(cubes, vec2<i32>(x, y), i32(6u * c + face), 0).xyz;
+    return vec3<u32>(f, u32(i), u32(j));
+}
+
+// Cube c's texel (i, j) of face f, continued across its edges (wrapped_texel).
+fn cube_texel(c: u32, n: u32, f: u32, i: i32, j: i32) -> vec3<f32> {
+    let k = wrapped_texel(n, f, i, j);
+    return textureLoad(cubes, vec2<i32>(i32(k.y), i32(k.z)), i32(6u * c + k.x), 0).xyz;
+}
+
+// The visible fraction in the visibility cube starting at byte `at`, texel (i, j) of face f
+// continued across its edges.
+fn visible_texel(at: u32, f: u32, i: i32, j: i32) -> f32 {
+    let k = wrapped_texel(VISIBILITY_CUBE, f, i, j);
+    return visible_byte(at + (k.x * VISIBILITY_CUBE + k.z) * VISIBILITY_CUBE + k.y);
+}
+
+// The visibility cube starting at byte `at` at (face, s, t), bilinear across face edges as
+// cube_bilinear is (the CPU runtime's view stage).
+fn visible_bilinear(at: u32, p: FaceSt) -> f32 {
+    let nf = f32(VISIBILITY_CUBE);
+    let fx = p.s * nf - 0.5;
+    let fy = p.t * nf - 0.5;
+    let x0 = floor(fx);
+    let y0 = floor(fy);
+    let tx = fx - x0;
+    let ty = fy - y0;
+    let i = i32(x0);
+    let j = i32(y0);
+    return visible_texel(at, p.face, i, j) * ((1.0 - tx) * (1.0 - ty))
+        + visible_texel(at, p.face, i + 1, j) * (tx * (1.0 - ty))
+        + visible_texel(at, p.face, i, j + 1) * ((1.0 - tx) * ty)
+        + visible_texel(at, p.face, i + 1, j + 1) * (tx * ty);
 }
 
 // Cube c at (face, s, t), bilinear across face edges.
@@ -504,13 +531,10 @@ fn shade(t: u32, bary: vec2<f32>) -> vec3<f32> {
     let r_l = vec3<f32>(-wo_l.x, -wo_l.y, wo_l.z);
     let r_w = tangent * r_l.x + bitangent * r_l.y + n * r_l.z;
     let at = face_st(r_w);
-    // Visible fraction of the 16-cube texel holding r, interpolated over the vertices.
-    let vi = min(u32(at.s * f32(VISIBILITY_CUBE)), VISIBILITY_CUBE - 1u);
-    let vj = min(u32(at.t * f32(VISIBILITY_CUBE)), VISIBILITY_CUBE - 1u);
-    let texel = (at.face * VISIBILITY_CUBE + vj) * VISIBILITY_CUBE + vi;
-    let visible = w.x * visible_byte(index[frame.vertex_info_at + 2u * v0 + 1u] + texel)
-        + w.y * visible_byte(index[frame.vertex_info_at + 2u * v1 + 1u] + texel)
-        + w.z * visible_byte(index[frame.vertex_info_at + 2u * v2 + 1u] + texel);
+    // Visible fraction towards r, bilinear in the 16-cube, interpolated over the vertices.
+    let visible = w.x * visible_bilinear(index[frame.vertex_info_at + 2u * v0 + 1u], at)
+        + w.y * visible_bilinear(index[frame.vertex_info_at + 2u * v1 + 1u], at)
+        + w.z * visible_bilinear(index[frame.vertex_info_at + 2u * v2 + 1u], at);
     // I1's SH at r, summed per band.
     var y: array<f32, 16>;
     sh_eval(r_l, &y);

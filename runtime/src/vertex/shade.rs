@@ -17,7 +17,8 @@
 //! - `S_w = V(r) Ibar_w(r) + sum_s g_w[band(s)] I1[s] Y_s(r_local) + I2` at the mirror
 //!   direction `r`: `Ibar_w` the environment seen through the normalized Gaussian of width w
 //!   (width 0: the environment itself, bilinear in the lat-long map), `V(r)` the vertices'
-//!   visible fraction of the 6x16x16 texel holding `r` (interpolated), `g_w` the normalized
+//!   visible fraction towards `r` (the 6x16x16 cube bilinear between texel centres and across
+//!   face edges, interpolated over the vertices), `g_w` the normalized
 //!   Gaussian's per-band SH factors (1 at width 0).
 //!
 //! This is `ShadingBasis::reflected` for the three channels at once (the parameter and `wo`
@@ -29,7 +30,7 @@ use std::ops::Range;
 use prt_formats::basis::{mirror, HemiWeights, ShadingBasis, MAX_SHADING_RANK, MAX_SPLIT_WIDTHS};
 use prt_formats::envmap::LatLongMap;
 use prt_formats::latlong;
-use prt_formats::lighting::cubemap::{direction_to_face_st, face_st_to_texel, texel_index};
+use prt_formats::lighting::cubemap::{bilinear_taps, direction_to_face_st};
 use prt_formats::lighting::sh::{sh_band, sh_eval_f32, SH_BANDS, SH_COUNT};
 use prt_formats::lighting::Face;
 use prt_formats::pixel::MaterialParams;
@@ -405,13 +406,18 @@ impl ViewInputs<'_> {
             std::array::from_fn(|i| tangent[i] * r_l[0] + bitangent[i] * r_l[1] + n[i] * r_l[2]);
         // Its cube-face coordinates, shared by the visibility texel and every prefiltered cube.
         let (face, fs, ft) = direction_to_face_st(r_w.map(f64::from));
-        // Visible fraction of the 16-cube texel holding r.
-        let (face_v, ti, tj) = face_st_to_texel(VISIBILITY_CUBE, face, fs, ft);
-        let texel = texel_index(VISIBILITY_CUBE, face_v, ti, tj);
+        // Visible fraction towards r: the 16-cube bilinear between texel centres, across face
+        // edges as the prefiltered cubes are (nearest texels drew a nearby object's reflection
+        // as a staircase of texel-sized blocks), interpolated over the vertices.
+        let vis_taps = bilinear_taps(VISIBILITY_CUBE, face, fs, ft);
         let rows = &self.file_bytes[self.cache.visibility[g].clone()];
         let per_vertex = 6 * VISIBILITY_CUBE * VISIBILITY_CUBE;
         let visible: f32 = (0..3)
-            .map(|k| w[k] * f32::from(rows[local[k] * per_vertex + texel]) / 255.0)
+            .map(|k| {
+                let row = &rows[local[k] * per_vertex..][..per_vertex];
+                let v: f64 = vis_taps.iter().map(|&(t, tw)| tw * f64::from(row[t])).sum();
+                w[k] * (v / 255.0) as f32
+            })
             .sum();
         // I1's SH at r, summed per band.
         let y = sh_eval_f32(r_l);
