@@ -303,37 +303,39 @@ fn visible_texel(at: u32, f: u32, i: i32, j: i32) -> f32 {
 // The visibility cube starting at byte `at` at (face, s, t), bilinear across face edges as
 // cube_bilinear is (the CPU runtime's view stage).
 fn visible_bilinear(at: u32, p: FaceSt) -> f32 {
-    let nf = f32(VISIBILITY_CUBE);
-    let fx = p.s * nf - 0.5;
-    let fy = p.t * nf - 0.5;
-    let x0 = floor(fx);
-    let y0 = floor(fy);
-    let tx = fx - x0;
-    let ty = fy - y0;
-    let i = i32(x0);
-    let j = i32(y0);
-    return visible_texel(at, p.face, i, j) * ((1.0 - tx) * (1.0 - ty))
-        + visible_texel(at, p.face, i + 1, j) * (tx * (1.0 - ty))
-        + visible_texel(at, p.face, i, j + 1) * ((1.0 - tx) * ty)
-        + visible_texel(at, p.face, i + 1, j + 1) * (tx * ty);
+    let k = bilinear_cell(VISIBILITY_CUBE, p);
+    return visible_texel(at, p.face, k.i, k.j) * ((1.0 - k.tx) * (1.0 - k.ty))
+        + visible_texel(at, p.face, k.i + 1, k.j) * (k.tx * (1.0 - k.ty))
+        + visible_texel(at, p.face, k.i, k.j + 1) * ((1.0 - k.tx) * k.ty)
+        + visible_texel(at, p.face, k.i + 1, k.j + 1) * (k.tx * k.ty);
 }
 
-// Cube c at (face, s, t), bilinear across face edges.
-fn cube_bilinear(c: u32, at: FaceSt) -> vec3<f32> {
-    let n = index[frame.cube_size_at + c];
+// The bilinear cell of (face, s, t) in a cube of side n: the lower texel (i, j), which may lie
+// one texel off the face, and the weights (tx, ty) of the next ones.
+struct Cell {
+    i: i32,
+    j: i32,
+    tx: f32,
+    ty: f32,
+}
+
+fn bilinear_cell(n: u32, at: FaceSt) -> Cell {
     let nf = f32(n);
     let fx = at.s * nf - 0.5;
     let fy = at.t * nf - 0.5;
     let x0 = floor(fx);
     let y0 = floor(fy);
-    let tx = fx - x0;
-    let ty = fy - y0;
-    let i = i32(x0);
-    let j = i32(y0);
-    return cube_texel(c, n, at.face, i, j) * ((1.0 - tx) * (1.0 - ty))
-        + cube_texel(c, n, at.face, i + 1, j) * (tx * (1.0 - ty))
-        + cube_texel(c, n, at.face, i, j + 1) * ((1.0 - tx) * ty)
-        + cube_texel(c, n, at.face, i + 1, j + 1) * (tx * ty);
+    return Cell(i32(x0), i32(y0), fx - x0, fy - y0);
+}
+
+// Cube c at (face, s, t), bilinear across face edges.
+fn cube_bilinear(c: u32, at: FaceSt) -> vec3<f32> {
+    let n = index[frame.cube_size_at + c];
+    let k = bilinear_cell(n, at);
+    return cube_texel(c, n, at.face, k.i, k.j) * ((1.0 - k.tx) * (1.0 - k.ty))
+        + cube_texel(c, n, at.face, k.i + 1, k.j) * (k.tx * (1.0 - k.ty))
+        + cube_texel(c, n, at.face, k.i, k.j + 1) * ((1.0 - k.tx) * k.ty)
+        + cube_texel(c, n, at.face, k.i + 1, k.j + 1) * (k.tx * k.ty);
 }
 
 // prt_formats::vertex::vertex_frame: the tangent and bitangent of normal n.
