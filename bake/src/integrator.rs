@@ -189,6 +189,9 @@ impl<'a> Integrator<'a> {
         if ns == Vec3::ZERO {
             ns = ng;
         }
+        // The material's normal map bends the shading normal (before the sides are chosen:
+        // the map is drawn on the surface's front).
+        ns = scene.bent_normal(hit.triangle, hit.bary, ns);
         // Two-sided surfaces: face the normals towards the incoming ray.
         if ng.dot(dir) > 0.0 {
             ng = -ng;

@@ -10,6 +10,7 @@
 //! * [`latlong`]: the lat-long (equirectangular) environment mapping, uv <-> direction.
 //! * [`lighting`]: the lighting bases of the per-vertex mode (cube maps, Haar wavelets,
 //!   spherical harmonics, the Gaussian prefilter).
+//! * [`normal_map`]: tangent-space normal maps (the bent shading normal every part uses).
 //! * [`overrides`]: `--set MATERIAL.PARAM=VALUE` parsing.
 //! * [`basis`]: the persisted BRDF basis of editable materials and its evaluation.
 //! * [`pixel`]: the per-pixel bake schema (metadata, slots, relighting weights).
@@ -28,6 +29,7 @@ pub mod family;
 pub mod image_io;
 pub mod latlong;
 pub mod lighting;
+pub mod normal_map;
 pub mod overrides;
 pub mod pixel;
 pub mod texture;

@@ -51,9 +51,10 @@ use crate::pixel::{BasisMeta, MaterialMeta, Precision};
 /// added compressed T1 and T2 ([`crate::clustered`]); version 3 a per-group count of T0 terms
 /// ([`VertexGroupMeta::t0_terms`]) and clusters chosen from the error target
 /// ([`CompressionSettings::cluster_vertices`] absent); version 4 the open-sky flags of the
-/// irradiance rows ([`names::t0_open`]; without them every row is the visible part). Versions
-/// 1 to 3 are still read.
-pub const VERTEX_SCHEMA_VERSION: u32 = 4;
+/// irradiance rows ([`names::t0_open`]; without them every row is the visible part); version 5
+/// materials' normal maps ([`VertexBakeMeta::material_normal_maps`]). Versions 1 to 4 are still
+/// read.
+pub const VERTEX_SCHEMA_VERSION: u32 = 5;
 /// The oldest per-vertex schema version this build reads.
 pub const OLDEST_VERTEX_SCHEMA_VERSION: u32 = 1;
 
@@ -163,8 +164,9 @@ pub enum EnvironmentMeta {
     },
 }
 
-/// A base-colour texture of a material, stored as [`names::texture`] `[height, width, 3]` f32,
-/// linear RGB, top row first, sampled by [`crate::texture::sample_bilinear`].
+/// A texture of a material, stored as [`names::texture`] `[height, width, 3]` f32, top row
+/// first, sampled by [`crate::texture::sample_bilinear`]: linear RGB for a base colour, the
+/// decoded tangent-space vectors ([`crate::normal_map::decode_texel`]) for a normal map.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct TextureMeta {
     /// Width in texels.
@@ -267,6 +269,11 @@ pub struct VertexBakeMeta {
     pub textures: Vec<TextureMeta>,
     /// Per material, its base-colour texture (applied per pixel at the last reflection).
     pub material_textures: Vec<Option<u32>>,
+    /// Per material, its normal map (index into `textures`), which bends the shading normal
+    /// of the last reflection per pixel ([`crate::normal_map`]); empty when no material has
+    /// one (and in files before schema 5).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub material_normal_maps: Vec<Option<u32>>,
     /// Global slots of the first reflection from the light in T2 (i), ascending.
     pub t2_slots: Vec<u32>,
     /// One group per material with vertices.
@@ -339,6 +346,19 @@ impl VertexBakeMeta {
             .find(|&&t| t as usize >= self.textures.len())
         {
             return Err(format!("material texture {t} out of range"));
+        }
+        if !self.material_normal_maps.is_empty()
+            && self.material_normal_maps.len() != self.materials.len()
+        {
+            return Err("material_normal_maps does not have one entry per material".into());
+        }
+        if let Some(t) = self
+            .material_normal_maps
+            .iter()
+            .flatten()
+            .find(|&&t| t as usize >= self.textures.len())
+        {
+            return Err(format!("material normal map {t} out of range"));
         }
         let sorted = |v: &[u32]| v.windows(2).all(|w| w[0] < w[1]);
         if !sorted(&self.t2_slots) || self.t2_slots.iter().any(|&j| j >= total_slots) {

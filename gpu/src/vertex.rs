@@ -67,7 +67,7 @@ struct MaterialBlock {
     tap0_w: f32,
     tap1: u32,
     tap1_w: f32,
-    pad: u32,
+    normal_map: i32,
 }
 
 /// `Basis` in the shader.
@@ -656,6 +656,7 @@ impl VertexGpu {
                     ks: mat.ks,
                     group: mat.group.map_or(-1, |g| g as i32),
                     texture: mat.texture.map_or(-1, |t| t as i32),
+                    normal_map: mat.normal_map.map_or(-1, |t| t as i32),
                     basis: -1,
                     ..Default::default()
                 };

@@ -285,6 +285,29 @@ fn vertex_scene() -> Scene {
     for (k, uv) in uvs.into_iter().enumerate().take(nfloor) {
         scene.uvs[k] = uv;
     }
+    // The glossy wall's normal map: bumps of up to about 30 degrees, 8 x 8 texels (stored
+    // decoded), over a mirrored u axis so that the bitangent's sign matters.
+    let (mw, mh) = (8u32, 8u32);
+    let bumps = (0..mw * mh)
+        .map(|k| {
+            let (x, y) = ((k % mw) as f32, (k / mw) as f32);
+            Vec3::new(0.5 * (1.3 * x).sin(), 0.4 * (0.9 * y + 0.5).cos(), 1.0)
+        })
+        .collect();
+    scene.textures.push(Texture {
+        name: "bumps".into(),
+        width: mw,
+        height: mh,
+        texels: bumps,
+    });
+    scene.materials[wall as usize].normal_texture = Some(1);
+    let corners = scene.positions.len() - 4;
+    for (k, uv) in [[1.0, 1.0], [0.0, 1.0], [0.0, 0.0], [1.0, 0.0]]
+        .into_iter()
+        .enumerate()
+    {
+        scene.uvs[corners + k] = glam::Vec2::from_array(uv);
+    }
     scene
 }
 

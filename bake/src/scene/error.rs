@@ -163,6 +163,8 @@ pub enum MaterialError {
     BaseColor([f32; 4]),
     #[error("metallicFactor/roughnessFactor must be finite")]
     Factors,
+    #[error("normalTexture scale {0} must be finite")]
+    NormalScale(f32),
     #[error("emission {0:?} (emissiveFactor x emissiveStrength) must be finite and >= 0")]
     Emission(glam::Vec3),
     /// The config's overrides do not fit the material (see [`super::resolve_brdf`]).

@@ -21,7 +21,9 @@ pub use gltf::material::{
 pub use gltf::texture::srgb_to_linear;
 pub use gltf::{load, load_with_warnings, unlit_warning};
 
-/// A linear-RGB texture (sRGB-encoded glTF base-colour/emissive textures are decoded on load).
+/// A texture: linear RGB (sRGB-encoded glTF base-colour/emissive textures are decoded on
+/// load), or a normal map's tangent-space vectors (decoded on load with the map's scale,
+/// [`prt_formats::normal_map::decode_texel`]).
 #[derive(Clone, Debug)]
 pub struct Texture {
     pub name: String,
@@ -53,6 +55,9 @@ pub struct Material {
     pub brdf: BrdfParams,
     /// Index into [`Scene::textures`]; modulates the diffuse term (Kd) only.
     pub base_color_texture: Option<usize>,
+    /// Index into [`Scene::textures`] of its normal map (decoded tangent-space vectors), which
+    /// bends the shading normal wherever the material is shaded ([`Scene::bent_normal`]).
+    pub normal_texture: Option<usize>,
     /// Emitted radiance (emissiveFactor x KHR_materials_emissive_strength), linear RGB.
     pub emission: Vec3,
     /// Index into [`Scene::textures`]; modulates `emission`.
@@ -137,6 +142,32 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// The shading normal at barycentrics `(u, v)` of `triangle` for its unit interpolated
+    /// normal `ns`: bent by its material's normal map where it has one
+    /// ([`prt_formats::normal_map::perturb`]), else `ns`.
+    pub fn bent_normal(&self, triangle: u32, bary: Vec2, ns: Vec3) -> Vec3 {
+        let material = self.triangle_material[triangle as usize] as usize;
+        let Some(map) = self.materials[material]
+            .normal_texture
+            .and_then(|t| self.textures.get(t))
+        else {
+            return ns;
+        };
+        let tri = self.triangles[triangle as usize];
+        let p = tri.map(|i| self.positions[i as usize].to_array());
+        let uv = tri.map(|i| self.uvs[i as usize]);
+        let Some(axes) = prt_formats::normal_map::triangle_uv_axes(p, uv.map(|t| t.to_array()))
+        else {
+            return ns;
+        };
+        let at = uv[0] * (1.0 - bary.x - bary.y) + uv[1] * bary.x + uv[2] * bary.y;
+        Vec3::from_array(prt_formats::normal_map::perturb(
+            ns.to_array(),
+            axes,
+            map.sample(at).to_array(),
+        ))
+    }
+
     pub fn material_index(&self, name: &str) -> Option<usize> {
         self.materials.iter().position(|m| m.name == name)
     }

@@ -60,6 +60,7 @@ impl SceneBuilder {
             name: name.to_string(),
             brdf,
             base_color_texture: None,
+            normal_texture: None,
             emission,
             emissive_texture: None,
             editable,

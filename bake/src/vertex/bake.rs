@@ -206,7 +206,8 @@ pub fn vertex_common(
             ShadingMeta { basis }
         })
         .collect();
-    let (textures_meta, material_textures, textures) = base_colour_textures(scene);
+    let stored = stored_textures(scene);
+    let (textures_meta, textures) = (stored.meta, stored.texels);
     let (environment_meta, environment) = environment(scene);
     let cam = &scene.camera;
     let meta = VertexBakeMeta {
@@ -225,7 +226,8 @@ pub fn vertex_common(
         bases: bases_meta,
         shading: shading_meta,
         textures: textures_meta,
-        material_textures,
+        material_textures: stored.base_colour,
+        material_normal_maps: stored.normal_maps,
         t2_slots: plan.t2_slots.clone(),
         groups: groups_meta,
         environment: environment_meta,
@@ -345,25 +347,44 @@ pub fn vertex_common(
     Ok((common, tensors))
 }
 
-/// The base-colour textures of the materials (each stored once, in order of first use), each
-/// material's index into them, and their texels.
-fn base_colour_textures(scene: &Scene) -> (Vec<TextureMeta>, Vec<Option<u32>>, Vec<Vec<f32>>) {
+/// The textures the last reflection reads, as stored.
+struct StoredTextures {
+    meta: Vec<TextureMeta>,
+    /// Per material, its base-colour texture.
+    base_colour: Vec<Option<u32>>,
+    /// Per material, its normal map; empty when no material has one.
+    normal_maps: Vec<Option<u32>>,
+    texels: Vec<Vec<f32>>,
+}
+
+/// The base-colour textures and normal maps of the materials (each stored once, in order of
+/// first use) and each material's index into them.
+fn stored_textures(scene: &Scene) -> StoredTextures {
     let mut used: Vec<usize> = Vec::new();
-    let material_textures = scene
+    let mut index_of = |t: Option<usize>| -> Option<u32> {
+        let t = t?;
+        scene.textures.get(t)?;
+        Some(match used.iter().position(|&u| u == t) {
+            Some(i) => i as u32,
+            None => {
+                used.push(t);
+                (used.len() - 1) as u32
+            }
+        })
+    };
+    let base_colour: Vec<Option<u32>> = scene
         .materials
         .iter()
-        .map(|m| {
-            let t = m.base_color_texture?;
-            scene.textures.get(t)?;
-            Some(match used.iter().position(|&u| u == t) {
-                Some(i) => i as u32,
-                None => {
-                    used.push(t);
-                    (used.len() - 1) as u32
-                }
-            })
-        })
+        .map(|m| index_of(m.base_color_texture))
         .collect();
+    let mut normal_maps: Vec<Option<u32>> = scene
+        .materials
+        .iter()
+        .map(|m| index_of(m.normal_texture))
+        .collect();
+    if normal_maps.iter().all(Option::is_none) {
+        normal_maps.clear();
+    }
     let meta = used
         .iter()
         .map(|&t| TextureMeta {
@@ -375,7 +396,12 @@ fn base_colour_textures(scene: &Scene) -> (Vec<TextureMeta>, Vec<Option<u32>>, V
         .iter()
         .map(|&t| flat(&scene.textures[t].texels))
         .collect();
-    (meta, material_textures, texels)
+    StoredTextures {
+        meta,
+        base_colour,
+        normal_maps,
+        texels,
+    }
 }
 
 /// The scene's environment as stored, and the lat-long texels (empty for a constant one).

@@ -53,7 +53,8 @@ struct Material {
     tap0_w: f32,
     tap1: u32,
     tap1_w: f32,
-    pad: u32,
+    // Its normal map (a texture of decoded vectors), or -1.
+    normal_map: i32,
 }
 
 struct Basis {
@@ -471,6 +472,68 @@ fn visible_byte(at: u32) -> f32 {
     return f32((word >> (8u * (at & 3u))) & 255u) / 255.0;
 }
 
+// Whether the data side of triangle (v0, v1, v2) (the side its normal n is on) faces the eye.
+fn data_side_faces_eye(v0: u32, v1: u32, v2: u32, n: vec3<f32>, wo: vec3<f32>) -> bool {
+    let p0 = position_of(v0);
+    var ng = cross(position_of(v1) - p0, position_of(v2) - p0);
+    if dot(ng, n) < 0.0 {
+        ng = -ng;
+    }
+    return dot(ng, wo) > 0.0;
+}
+
+// prt_formats::normal_map::triangle_uv_axes: dP/du and dP/dv of a triangle.
+struct UvAxes {
+    dpdu: vec3<f32>,
+    dpdv: vec3<f32>,
+    ok: bool,
+}
+
+fn triangle_uv_axes(
+    p0: vec3<f32>,
+    p1: vec3<f32>,
+    p2: vec3<f32>,
+    t0: vec2<f32>,
+    t1: vec2<f32>,
+    t2: vec2<f32>,
+) -> UvAxes {
+    var out: UvAxes;
+    let e1 = p1 - p0;
+    let e2 = p2 - p0;
+    let d1 = t1 - t0;
+    let d2 = t2 - t0;
+    let det = d1.x * d2.y - d2.x * d1.y;
+    if !(abs(det) >= 1e-20 && abs(det) < 3.4e38) {
+        return out;
+    }
+    let r = 1.0 / det;
+    out.dpdu = (e1 * d2.y - e2 * d1.y) * r;
+    out.dpdv = (e2 * d1.x - e1 * d2.x) * r;
+    let huge = vec3<f32>(3.4e38);
+    out.ok = all(abs(out.dpdu) < huge) && all(abs(out.dpdv) < huge);
+    return out;
+}
+
+// prt_formats::normal_map::perturb: n bent by the map's sample m in the frame of the axes.
+fn perturb(n: vec3<f32>, axes: UvAxes, m: vec3<f32>) -> vec3<f32> {
+    var t = axes.dpdu - n * dot(n, axes.dpdu);
+    let len = sqrt(dot(t, t));
+    if !(len > 1e-12 * sqrt(dot(axes.dpdu, axes.dpdu))) || !(len < 3.4e38) {
+        return n;
+    }
+    t = t * (1.0 / len);
+    var b = cross(n, t);
+    if dot(b, axes.dpdv) > 0.0 {
+        b = -b;
+    }
+    let out = t * m.x + b * m.y + n * m.z;
+    let l = sqrt(dot(out, out));
+    if !(l > 0.0) || !(l < 3.4e38) {
+        return n;
+    }
+    return out * (1.0 / l);
+}
+
 // The radiance towards the eye from triangle t at barycentrics bary (runtime `shade`).
 fn shade(t: u32, bary: vec2<f32>) -> vec3<f32> {
     let v0 = index[3u * t];
@@ -485,24 +548,38 @@ fn shade(t: u32, bary: vec2<f32>) -> vec3<f32> {
         return vec3<f32>(0.0);
     }
     let glossy = m.basis >= 0;
-    let n_dot_wo = dot(n, wo);
+    // The shading normal: n, or n bent by the material's normal map (runtime `shade`); the
+    // records stay in the frame of n.
+    var ns = n;
+    var bent = false;
+    if m.normal_map >= 0 {
+        let u0 = uv_of(v0);
+        let u1 = uv_of(v1);
+        let u2 = uv_of(v2);
+        let axes = triangle_uv_axes(position_of(v0), position_of(v1), position_of(v2), u0, u1, u2);
+        if axes.ok {
+            let uv = w.x * u0 + w.y * u1 + w.z * u2;
+            ns = perturb(n, axes, texture_rgb(u32(m.normal_map), uv));
+            bent = true;
+        }
+    }
+    if bent && !(dot(n, wo) > 0.0) && !data_side_faces_eye(v0, v1, v2, n, wo) {
+        // A bent normal may face the eye from the side without data: black there too.
+        return vec3<f32>(0.0);
+    }
+    let n_dot_wo = dot(ns, wo);
     var tangent = vec3<f32>(0.0);
     var bitangent = vec3<f32>(0.0);
     var wo_l = vec3<f32>(0.0, 0.0, 1.0);
     if glossy || !(n_dot_wo > 0.0) {
-        tangent = vertex_frame_t(n);
-        bitangent = cross(n, tangent);
-        wo_l = vec3<f32>(dot(tangent, wo), dot(bitangent, wo), dot(n, wo));
+        tangent = vertex_frame_t(ns);
+        bitangent = cross(ns, tangent);
+        wo_l = vec3<f32>(dot(tangent, wo), dot(bitangent, wo), dot(ns, wo));
         if !(wo_l.z > 0.0) {
             // Near a silhouette the interpolated normal can turn away from the eye while the
             // triangle faces it: shade as seen from just above the horizon. A triangle whose
             // data side faces away is seen from the side without data: black.
-            let p0 = position_of(v0);
-            var ng = cross(position_of(v1) - p0, position_of(v2) - p0);
-            if dot(ng, n) < 0.0 {
-                ng = -ng;
-            }
-            if !(dot(ng, wo) > 0.0) {
+            if !data_side_faces_eye(v0, v1, v2, n, wo) {
                 return vec3<f32>(0.0);
             }
             let h = sqrt(wo_l.x * wo_l.x + wo_l.y * wo_l.y);
@@ -531,7 +608,14 @@ fn shade(t: u32, bary: vec2<f32>) -> vec3<f32> {
     let basis = bases[u32(m.basis)];
     // The mirror direction, local and world.
     let r_l = vec3<f32>(-wo_l.x, -wo_l.y, wo_l.z);
-    let r_w = tangent * r_l.x + bitangent * r_l.y + n * r_l.z;
+    let r_w = tangent * r_l.x + bitangent * r_l.y + ns * r_l.z;
+    // I1's SH is in the frame of the data's normal n.
+    var r_sh = r_l;
+    if bent {
+        let t_n = vertex_frame_t(n);
+        let b_n = cross(n, t_n);
+        r_sh = vec3<f32>(dot(t_n, r_w), dot(b_n, r_w), dot(n, r_w));
+    }
     let at = face_st(r_w);
     // Visible fraction towards r, bilinear in the 16-cube, interpolated over the vertices.
     let visible = w.x * visible_bilinear(index[frame.vertex_info_at + 2u * v0 + 1u], at)
@@ -539,7 +623,7 @@ fn shade(t: u32, bary: vec2<f32>) -> vec3<f32> {
         + w.z * visible_bilinear(index[frame.vertex_info_at + 2u * v2 + 1u], at);
     // I1's SH at r, summed per band.
     var y: array<f32, 16>;
-    sh_eval(r_l, &y);
+    sh_eval(r_sh, &y);
     var bands: array<vec3<f32>, 4>;
     for (var s = 0u; s < 16u; s = s + 1u) {
         let l = sh_band(s);

@@ -457,10 +457,9 @@ impl VertexRelighter {
         self.view.prepare(
             &self.file,
             &self.scene,
-            self.meta.groups.len(),
+            &self.meta,
             self.materials.all(),
             &shaded.lobes,
-            &self.meta.material_textures,
         )?;
         Ok((rays, light_s, material_s))
     }

@@ -8,6 +8,9 @@
 //! - `n = normalize(sum w_v n_v)`, `p = sum w_v p_v`, `wo = normalize(eye - p)`, the frame
 //!   `(t, b) = vertex_frame(n)` and `wo` in it; the vertex records `E`, `U`, `I1`, `I2` and
 //!   the texture coordinate are interpolated with the same weights;
+//! - **a normal map** (the material's, `prt_formats::normal_map`) bends `n` per pixel to
+//!   `n'`; the lobe below is then evaluated about `n'` (`wo`'s frame, the mirror direction)
+//!   while I1's SH is read in the frame of `n`, where the records are. Without one, `n' = n`;
 //! - **the side without data**: the baker stores light arriving on the side the vertex normal
 //!   points to. When `wo` is at or below the interpolated normal's horizon (the back of a
 //!   surface, or a silhouette where the interpolated normal turns away), the pixel is black;
@@ -33,9 +36,10 @@ use prt_formats::latlong;
 use prt_formats::lighting::cubemap::{bilinear_taps, direction_to_face_st};
 use prt_formats::lighting::sh::{sh_band, sh_eval_f32, SH_BANDS, SH_COUNT};
 use prt_formats::lighting::Face;
+use prt_formats::normal_map::{perturb, triangle_uv_axes};
 use prt_formats::pixel::MaterialParams;
 use prt_formats::texture::sample_bilinear;
-use prt_formats::vertex::{to_local, vertex_frame, VISIBILITY_CUBE};
+use prt_formats::vertex::{to_local, vertex_frame, VertexBakeMeta, VISIBILITY_CUBE};
 use prt_formats::BakeFile;
 use rayon::prelude::*;
 
@@ -125,6 +129,8 @@ pub(super) struct MaterialView {
     pub(super) ks: [f32; 3],
     /// Index into `Scene::textures`.
     pub(super) texture: Option<usize>,
+    /// Index into `Scene::textures` of its normal map.
+    pub(super) normal_map: Option<usize>,
     /// Its lobe's split reflectance taps (None: diffuse only).
     pub(super) taps: Option<ParamTaps>,
 }
@@ -151,16 +157,17 @@ impl ViewCache {
         self.visibility.get(g).cloned()
     }
 
-    /// Finds the groups' visibility tensors (once per file) and gathers the materials.
+    /// Finds the groups' visibility tensors (once per file) and gathers the materials (their
+    /// textures from `meta`).
     pub(super) fn prepare(
         &mut self,
         file: &BakeFile,
         scene: &Scene,
-        groups: usize,
+        meta: &VertexBakeMeta,
         params: &[MaterialParams],
         lobes: &[Option<Lobe>],
-        textures: &[Option<u32>],
     ) -> Result<(), RuntimeError> {
+        let groups = meta.groups.len();
         if self.visibility.len() != groups {
             self.visibility.clear();
             for g in 0..groups {
@@ -182,7 +189,13 @@ impl ViewCache {
                     group: scene.material_group[m].map(|g| g as usize),
                     kd: p.kd,
                     ks: p.ks,
-                    texture: textures[m].map(|t| t as usize),
+                    texture: meta.material_textures[m].map(|t| t as usize),
+                    normal_map: meta
+                        .material_normal_maps
+                        .get(m)
+                        .copied()
+                        .flatten()
+                        .map(|t| t as usize),
                     taps: lobes[m]
                         .as_ref()
                         .map(|l| ParamTaps::new(&scene.shading[l.basis], l.param)),
@@ -326,32 +339,61 @@ impl ViewInputs<'_> {
             return [0.0; 3];
         };
         let glossy = self.lobes[m].is_some() && material.taps.is_some();
-        // `to_local(.., n, wo)[2]`, the same operations: a diffuse pixel whose normal faces the
+        // The shading normal: `n`, or `n` bent by the material's normal map. The records stay
+        // in the frame of `n` (the data's); the BRDF is evaluated in the frame of `ns`.
+        let bent = material.normal_map.and_then(|i| {
+            let tx = &s.textures[i];
+            let p = tri.map(|v| s.positions[v as usize]);
+            let uvs = tri.map(|v| s.uvs[v as usize]);
+            let axes = triangle_uv_axes(p, uvs)?;
+            let uv = [
+                w[0] * uvs[0][0] + w[1] * uvs[1][0] + w[2] * uvs[2][0],
+                w[0] * uvs[0][1] + w[1] * uvs[1][1] + w[2] * uvs[2][1],
+            ];
+            Some(perturb(
+                n,
+                axes,
+                sample_bilinear(&tx.texels, tx.width, tx.height, uv),
+            ))
+        });
+        let ns = bent.unwrap_or(n);
+        // Whether the triangle's data side (the side its vertex normals are on) faces the eye.
+        let data_side_faces_eye = || {
+            let [a, b, c] = tri.map(|v| s.positions[v as usize]);
+            let e1: [f32; 3] = std::array::from_fn(|i| b[i] - a[i]);
+            let e2: [f32; 3] = std::array::from_fn(|i| c[i] - a[i]);
+            let mut ng = [
+                e1[1] * e2[2] - e1[2] * e2[1],
+                e1[2] * e2[0] - e1[0] * e2[2],
+                e1[0] * e2[1] - e1[1] * e2[0],
+            ];
+            if ng[0] * n[0] + ng[1] * n[1] + ng[2] * n[2] < 0.0 {
+                ng = ng.map(|v| -v);
+            }
+            let facing = ng[0] * wo[0] + ng[1] * wo[1] + ng[2] * wo[2];
+            facing > 0.0
+        };
+        if bent.is_some() {
+            // A bent normal may face the eye from the side without data: black there too.
+            let d = n[0] * wo[0] + n[1] * wo[1] + n[2] * wo[2];
+            if (d.is_nan() || d <= 0.0) && !data_side_faces_eye() {
+                return [0.0; 3];
+            }
+        }
+        // `to_local(.., ns, wo)[2]`, the same operations: a diffuse pixel whose normal faces the
         // eye needs no tangent frame, only the irradiance (most pixels of most scenes).
-        let n_dot_wo = n[0] * wo[0] + n[1] * wo[1] + n[2] * wo[2];
+        let n_dot_wo = ns[0] * wo[0] + ns[1] * wo[1] + ns[2] * wo[2];
         let mut frame = None;
         if glossy || n_dot_wo.is_nan() || n_dot_wo <= 0.0 {
-            let (tangent, bitangent) = vertex_frame(n);
-            let mut wo_l = to_local(tangent, bitangent, n, wo);
+            let (tangent, bitangent) = vertex_frame(ns);
+            let mut wo_l = to_local(tangent, bitangent, ns, wo);
             // NaN (a degenerate normal) also takes this branch.
             if wo_l[2].is_nan() || wo_l[2] <= 0.0 {
                 // Near a silhouette the interpolated normal can turn away from the eye while the
                 // triangle itself faces it (the side its vertex normals are on): shade as seen
                 // from just above the horizon rather than leave a black pixel. A triangle whose
                 // data side faces away from the eye is seen from the side without data: black.
-                let [a, b, c] = tri.map(|v| s.positions[v as usize]);
-                let e1: [f32; 3] = std::array::from_fn(|i| b[i] - a[i]);
-                let e2: [f32; 3] = std::array::from_fn(|i| c[i] - a[i]);
-                let mut ng = [
-                    e1[1] * e2[2] - e1[2] * e2[1],
-                    e1[2] * e2[0] - e1[0] * e2[2],
-                    e1[0] * e2[1] - e1[1] * e2[0],
-                ];
-                if ng[0] * n[0] + ng[1] * n[1] + ng[2] * n[2] < 0.0 {
-                    ng = ng.map(|v| -v);
-                }
-                let facing = ng[0] * wo[0] + ng[1] * wo[1] + ng[2] * wo[2];
-                if facing.is_nan() || facing <= 0.0 {
+                if !data_side_faces_eye() {
                     return [0.0; 3];
                 }
                 let h = (wo_l[0] * wo_l[0] + wo_l[1] * wo_l[1]).sqrt();
@@ -403,7 +445,15 @@ impl ViewInputs<'_> {
         // The mirror direction, local and world.
         let r_l = mirror(wo_l);
         let r_w: [f32; 3] =
-            std::array::from_fn(|i| tangent[i] * r_l[0] + bitangent[i] * r_l[1] + n[i] * r_l[2]);
+            std::array::from_fn(|i| tangent[i] * r_l[0] + bitangent[i] * r_l[1] + ns[i] * r_l[2]);
+        // I1's SH is in the frame of the data's normal `n`.
+        let r_sh = match bent {
+            None => r_l,
+            Some(_) => {
+                let (t, b) = vertex_frame(n);
+                to_local(t, b, n, r_w)
+            }
+        };
         // Its cube-face coordinates, shared by the visibility texel and every prefiltered cube.
         let (face, fs, ft) = direction_to_face_st(r_w.map(f64::from));
         // Visible fraction towards r: the 16-cube bilinear between texel centres, across face
@@ -420,7 +470,7 @@ impl ViewInputs<'_> {
             })
             .sum();
         // I1's SH at r, summed per band.
-        let y = sh_eval_f32(r_l);
+        let y = sh_eval_f32(r_sh);
         let mut bands = [[0.0f32; 3]; SH_BANDS];
         for (sidx, ys) in y.iter().enumerate().take(SH_COUNT) {
             let band = &mut bands[sh_band(sidx)];

@@ -72,6 +72,9 @@ pub struct SurfaceMaterial<'a> {
     pub ks: [f32; 3],
     /// Its base-colour texture (index into [`VertexSurface::texture`]).
     pub texture: Option<usize>,
+    /// Its normal map (index into [`VertexSurface::texture`]: decoded tangent-space vectors,
+    /// `prt_formats::normal_map`), which bends the normal its lobe is evaluated about.
+    pub normal_map: Option<usize>,
     /// Its lobe, when it has one (else only `Kd tex / pi E` is shaded).
     pub lobe: Option<SurfaceLobe<'a>>,
 }
@@ -211,6 +214,7 @@ impl<'a> VertexSurface<'a> {
             kd: view.kd,
             ks: view.ks,
             texture: view.texture,
+            normal_map: view.normal_map,
             lobe,
         })
     }
@@ -253,12 +257,13 @@ impl<'a> VertexSurface<'a> {
         self.r.rotation_deg
     }
 
-    /// The number of base-colour textures.
+    /// The number of textures (base colours and normal maps).
     pub fn textures(&self) -> usize {
         self.r.scene.textures.len()
     }
 
-    /// Texture `t`: `(width, height, texels)`, linear RGB, top row first.
+    /// Texture `t`: `(width, height, texels)`, top row first: linear RGB, or a normal map's
+    /// decoded vectors.
     pub fn texture(&self, t: usize) -> Option<(usize, usize, &'a [[f32; 3]])> {
         let tx = self.r.scene.textures.get(t)?;
         Some((tx.width, tx.height, &tx.texels))

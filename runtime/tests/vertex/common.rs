@@ -451,6 +451,7 @@ impl Bake {
                     .collect(),
                 textures: Vec::new(),
                 material_textures: vec![None; nm],
+                material_normal_maps: Vec::new(),
                 t2_slots: (0..n_i as u32).collect(),
                 groups: group_meta,
                 environment: EnvironmentMeta::Constant { radiance },

@@ -6,6 +6,7 @@ use std::collections::HashMap;
 
 use glam::Vec3;
 
+use super::texture::Encoding;
 use super::Loader;
 use crate::brdf::{BrdfParams, Family, ALPHA_RANGE, SHININESS_RANGE};
 use crate::config::MaterialConfig;
@@ -98,11 +99,39 @@ impl Loader<'_> {
                 return Err(merr(MaterialError::Emission(emission)));
             }
             let base_color_texture = match pbr.base_color_texture() {
-                Some(info) => Some(self.texture(&info, &name, "baseColorTexture")?),
+                Some(info) => Some(self.texture(
+                    info.texture(),
+                    info.tex_coord(),
+                    Encoding::Srgb,
+                    &name,
+                    "baseColorTexture",
+                )?),
                 None => None,
             };
             let emissive_texture = match m.emissive_texture() {
-                Some(info) => Some(self.texture(&info, &name, "emissiveTexture")?),
+                Some(info) => Some(self.texture(
+                    info.texture(),
+                    info.tex_coord(),
+                    Encoding::Srgb,
+                    &name,
+                    "emissiveTexture",
+                )?),
+                None => None,
+            };
+            let normal_texture = match m.normal_texture() {
+                Some(info) => {
+                    let scale = info.scale();
+                    if !scale.is_finite() {
+                        return Err(merr(MaterialError::NormalScale(scale)));
+                    }
+                    Some(self.texture(
+                        info.texture(),
+                        info.tex_coord(),
+                        Encoding::Normal { scale },
+                        &name,
+                        "normalTexture",
+                    )?)
+                }
                 None => None,
             };
             let gltf_pbr = GltfPbr {
@@ -121,6 +150,7 @@ impl Loader<'_> {
                 name,
                 brdf,
                 base_color_texture,
+                normal_texture,
                 emission,
                 emissive_texture,
                 editable: cfg.is_some_and(|c| c.editable),
@@ -139,6 +169,7 @@ impl Loader<'_> {
                 name,
                 brdf,
                 base_color_texture: None,
+                normal_texture: None,
                 emission: Vec3::ZERO,
                 emissive_texture: None,
                 editable: cfg.is_some_and(|c| c.editable),

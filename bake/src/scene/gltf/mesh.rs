@@ -191,6 +191,14 @@ impl Loader<'_> {
                 .base_color_texture()
                 .is_some()
                 || prim.material().emissive_texture().is_some();
+            if prim.material().normal_texture().is_some() && uv.is_none() {
+                self.warnings.push(format!(
+                    "{}: mesh \"{}\" primitive {pi}: its material has a normalTexture but the \
+                     primitive has no TEXCOORD_0 to orient it by; the map is not applied there",
+                    self.path.display(),
+                    mesh_label(mesh)
+                ));
+            }
             if textured && uv.is_none() {
                 self.warnings.push(format!(
                     "{}: mesh \"{}\" primitive {pi}: its material has a texture but the \

@@ -108,7 +108,8 @@ struct Loader<'a> {
     buffers: Vec<Vec<u8>>,
     warnings: Vec<String>,
     textures: Vec<Texture>,
-    texture_of_image: HashMap<usize, usize>,
+    /// Loaded textures by (glTF image, [`texture::Encoding`] key).
+    texture_of_image: HashMap<(usize, u32), usize>,
 }
 
 impl Loader<'_> {

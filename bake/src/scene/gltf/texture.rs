@@ -1,5 +1,5 @@
-//! Texture images (base colour, emissive): read once per glTF image, decoded, and converted
-//! from sRGB to linear.
+//! Texture images: read once per glTF image and use, decoded, and converted from sRGB to
+//! linear (base colour, emissive) or to tangent-space vectors (normal maps).
 
 use glam::Vec3;
 
@@ -7,24 +7,47 @@ use super::{accessors, source, Loader};
 use crate::scene::error::ResourceError;
 use crate::scene::{SceneError, Texture};
 
+/// How a texture's texels are stored in the [`Texture`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Encoding {
+    /// Colour: sRGB-decoded to linear RGB.
+    Srgb,
+    /// A normal map with its `scale`: linear texels decoded to tangent-space vectors
+    /// ([`prt_formats::normal_map::decode_texel`]).
+    Normal { scale: f32 },
+}
+
+impl Encoding {
+    /// The key of a decoded image: one image read as colour and as a normal map (or at two
+    /// scales) is two textures.
+    fn key(self) -> u32 {
+        match self {
+            Encoding::Srgb => u32::MAX,
+            Encoding::Normal { scale } => scale.to_bits(),
+        }
+    }
+}
+
 impl Loader<'_> {
-    /// Loads (once per glTF image) the image behind a texture reference, sRGB-decoded.
+    /// Loads (once per glTF image and encoding) the image behind a texture reference.
     pub(super) fn texture(
         &mut self,
-        info: &gltf::texture::Info,
+        texture: gltf::Texture,
+        tex_coord: u32,
+        encoding: Encoding,
         material: &str,
         slot: &str,
     ) -> Result<usize, SceneError> {
-        if info.tex_coord() != 0 {
+        if tex_coord != 0 {
             self.warnings.push(format!(
-                "{}: material \"{material}\": {slot} uses TEXCOORD_{}; only TEXCOORD_0 is read",
+                "{}: material \"{material}\": {slot} uses TEXCOORD_{tex_coord}; only TEXCOORD_0 \
+                 is read",
                 self.path.display(),
-                info.tex_coord()
             ));
         }
-        let image = info.texture().source();
+        let image = texture.source();
         let index = image.index();
-        if let Some(&t) = self.texture_of_image.get(&index) {
+        if let Some(&t) = self.texture_of_image.get(&(index, encoding.key())) {
             return Ok(t);
         }
         let (label, bytes) = match image.source() {
@@ -61,12 +84,15 @@ impl Loader<'_> {
         let (width, height) = (rgb.width(), rgb.height());
         let texels = rgb
             .pixels()
-            .map(|p| {
-                Vec3::new(
+            .map(|p| match encoding {
+                Encoding::Srgb => Vec3::new(
                     srgb_to_linear(p.0[0]),
                     srgb_to_linear(p.0[1]),
                     srgb_to_linear(p.0[2]),
-                )
+                ),
+                Encoding::Normal { scale } => {
+                    Vec3::from_array(prt_formats::normal_map::decode_texel(p.0, scale))
+                }
             })
             .collect();
         let name = image
@@ -80,7 +106,7 @@ impl Loader<'_> {
             texels,
         });
         let t = self.textures.len() - 1;
-        self.texture_of_image.insert(index, t);
+        self.texture_of_image.insert((index, encoding.key()), t);
         Ok(t)
     }
 }

@@ -15,6 +15,8 @@ use prt_bake::config::{BakeConfig, ConfigError, EnvironmentConfig, MaterialConfi
 use prt_bake::scene::{load_with_warnings, Environment, PunctualLight, Scene, SceneError};
 use serde_json::{json, Value};
 
+mod textures;
+
 fn scenes_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes")
 }
@@ -906,50 +908,6 @@ fn punctual_lights_and_emission() {
             irradiance: Vec3::new(1.5, 1.5, 3.0)
         }
     );
-}
-
-#[test]
-fn textures_are_decoded_to_linear() {
-    let dir = TempDir::new("texture");
-    // A 2x1 PNG: sRGB 255 and 128.
-    let mut png = Vec::new();
-    image::RgbImage::from_raw(2, 1, vec![255, 255, 255, 128, 128, 128])
-        .unwrap()
-        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
-        .unwrap();
-    dir.write("albedo.png", &png);
-    let mut doc = Doc::new();
-    let m = doc.material(json!({"name": "textured",
-        "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}));
-    doc.mesh(&TRI, None, Some(m));
-    let uv = doc.floats(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0], "VEC2");
-    doc.json["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(uv);
-    doc.json["textures"] = json!([{"source": 0}]);
-    doc.json["images"] = json!([{"uri": "albedo.png"}]);
-    let gltf = doc.write_embedded(&dir);
-    let config = dir.config("");
-    let (scene, warnings) = load_with_warnings(&config).unwrap();
-    assert!(warnings.is_empty(), "{warnings:?}");
-    let t = scene.materials[0].base_color_texture.unwrap();
-    let tex = &scene.textures[t];
-    assert_eq!((tex.width, tex.height), (2, 1));
-    assert!(tex.texels[0].abs_diff_eq(Vec3::ONE, 1e-6));
-    assert!(
-        (tex.texels[1].x - 0.2158605).abs() < 1e-4,
-        "{}",
-        tex.texels[1]
-    );
-    assert_eq!(scene.uvs[1], Vec2::new(1.0, 0.0));
-
-    // The same image missing: an error naming the image file.
-    std::fs::remove_file(dir.0.join("albedo.png")).unwrap();
-    let e = load_err(&config);
-    assert!(e.contains("albedo.png") && e.contains("image 0"), "{e}");
-    // Not an image at all.
-    dir.write("albedo.png", b"not a png");
-    let e = load_err(&config);
-    assert!(e.contains("cannot decode"), "{e}");
-    drop(gltf);
 }
 
 #[test]
