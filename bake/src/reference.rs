@@ -34,15 +34,8 @@ impl<'a> TrueBrdfModel<'a> {
 
     #[inline]
     fn brdf_at(&self, s: &Surface) -> BrdfParams {
-        let mut b = self.brdfs[s.material as usize];
-        let m = &self.scene.materials[s.material as usize];
-        if let Some(t) = m
-            .base_color_texture
-            .and_then(|t| self.scene.textures.get(t))
-        {
-            b.kd *= t.sample(s.uv);
-        }
-        b
+        let m = s.material as usize;
+        self.scene.brdf_at(m, self.brdfs[m], s.uv)
     }
 }
 

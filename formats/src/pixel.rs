@@ -10,7 +10,9 @@
 //! - [`SlotKind::Basis`]: basis BRDF b of the material's family (editable materials),
 //!   coefficient Ks a_b(param), plus Kd for b = 0 when the material has no separate Kd slot;
 //! - [`SlotKind::Lobe`]: the fixed specular lobe of a non-editable glossy material,
-//!   coefficient Ks.
+//!   coefficient Ks;
+//! - [`SlotKind::Own`]: the whole BRDF of a non-editable material whose parameters vary over
+//!   its surface (a glTF metallicRoughnessTexture), colours included, coefficient 1.
 //!
 //! Slots of all materials are numbered globally (`MaterialMeta::slot_offset`). For each
 //! material R0 seen by the camera there is a *group*: its pixels and, per pixel, the tensors
@@ -38,6 +40,9 @@ pub enum SlotKind {
     Basis(u32),
     /// The fixed specular lobe of a non-editable glossy material; coefficient Ks.
     Lobe,
+    /// The whole BRDF of a non-editable material whose parameters vary over its surface
+    /// (textures applied at each point, colours included); coefficient 1.
+    Own,
 }
 
 /// One material of the scene as the bake file records it.
@@ -259,6 +264,7 @@ pub fn slot_coefficients(
         .map(|s| match *s {
             SlotKind::Kd => p.kd,
             SlotKind::Lobe => p.ks,
+            SlotKind::Own => [1.0; 3],
             SlotKind::Basis(b) => {
                 let a = lobe.get(b as usize).copied().unwrap_or(0.0);
                 let d = if b == 0 && !has_kd { p.kd } else { [0.0; 3] };

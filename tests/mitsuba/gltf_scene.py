@@ -150,7 +150,9 @@ def materials(doc):
     out = []
     for i, m in enumerate(doc.get("materials", [])):
         pbr = m.get("pbrMetallicRoughness", {})
-        if "baseColorTexture" in pbr or "emissiveTexture" in m:
+        textured = ("baseColorTexture" in pbr or "metallicRoughnessTexture" in pbr
+                    or "emissiveTexture" in m or "normalTexture" in m)
+        if textured:
             raise NotImplementedError("textured material %r" % m.get("name"))
         strength = m.get("extensions", {}).get("KHR_materials_emissive_strength", {}) \
                     .get("emissiveStrength", 1.0)

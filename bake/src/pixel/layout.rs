@@ -77,9 +77,12 @@ struct MaterialSlots {
     reasons: Vec<String>,
 }
 
-/// Whether a base-colour texture colours a slot (then tensors must be RGB).
+/// Whether a base-colour texture, or a BRDF varying over a surface ([`SlotKind::Own`]),
+/// colours a slot (then tensors must be RGB).
 fn textured_slots(materials: &[MaterialMeta]) -> bool {
-    materials.iter().any(|m| m.textured && !m.slots.is_empty())
+    materials
+        .iter()
+        .any(|m| (m.textured && !m.slots.is_empty()) || m.slots.contains(&SlotKind::Own))
 }
 
 /// Slots per material (see [`SlotLayout::new`]) and why each material got them.
@@ -127,6 +130,13 @@ fn material_slots(scene: &Scene, counts: &[(Family, usize)]) -> Result<MaterialS
             (
                 vec![SlotKind::Kd],
                 "editable diffuse: 1 slot (Kd)".to_string(),
+            )
+        } else if m.metallic_roughness.is_some() {
+            (
+                vec![SlotKind::Own],
+                "fixed, its parameters varying over its surface (metallicRoughnessTexture): \
+                 1 slot (its own BRDF, RGB)"
+                    .to_string(),
             )
         } else {
             let mut s = Vec::new();
@@ -257,7 +267,7 @@ impl SlotPlan {
             if channels == 1 {
                 "gray (1 channel): per unit radiance, colours live in the coefficients and the light"
             } else {
-                "RGB (3 channels): a diffuse texture is baked into slots"
+                "RGB (3 channels): a diffuse texture or a varying BRDF is baked into slots"
             }
         ));
         Ok(SlotPlan {

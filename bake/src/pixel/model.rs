@@ -116,14 +116,11 @@ impl<'a> BakeModel<'a> {
             .map(|t| t.sample(s.uv))
     }
 
-    /// The true BRDF of a fixed material at `s` (texture applied).
+    /// The true BRDF of a fixed material at `s` (textures applied).
     #[inline]
     fn fixed_brdf(&self, s: &Surface) -> BrdfParams {
-        let mut b = self.scene.materials[s.material as usize].brdf;
-        if let Some(t) = self.texture(s) {
-            b.kd *= t;
-        }
-        b
+        let m = s.material as usize;
+        self.scene.brdf_at(m, self.scene.materials[m].brdf, s.uv)
     }
 }
 
@@ -150,6 +147,7 @@ impl MaterialModel for BakeModel<'_> {
                 SlotKind::Kd => self.texture(s).unwrap_or(Vec3::ONE) * std::f32::consts::FRAC_1_PI,
                 SlotKind::Basis(b) => Vec3::splat(basis_vals[b as usize]),
                 SlotKind::Lobe => Vec3::splat(m.brdf.family.specular_lobe(m.brdf.param, wo, wi)),
+                SlotKind::Own => self.fixed_brdf(s).eval(wo, wi),
             };
         }
     }

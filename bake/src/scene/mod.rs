@@ -58,12 +58,27 @@ pub struct Material {
     /// Index into [`Scene::textures`] of its normal map (decoded tangent-space vectors), which
     /// bends the shading normal wherever the material is shaded ([`Scene::bent_normal`]).
     pub normal_texture: Option<usize>,
+    /// Its glTF metallicRoughnessTexture with the factors it scales, for a fixed material the
+    /// config leaves as the glTF made it: the BRDF then varies over the surface
+    /// ([`Scene::brdf_at`]). `None` for editable materials (their parameters are the user's).
+    pub metallic_roughness: Option<MetallicRoughnessMap>,
     /// Emitted radiance (emissiveFactor x KHR_materials_emissive_strength), linear RGB.
     pub emission: Vec3,
     /// Index into [`Scene::textures`]; modulates `emission`.
     pub emissive_texture: Option<usize>,
     /// Editable in the bake (from the config).
     pub editable: bool,
+}
+
+/// A glTF metallicRoughnessTexture: per point, roughness = `pbr.roughness` x G and metallic =
+/// `pbr.metallic` x B (linear texels), mapped to a BRDF like the factors alone
+/// ([`BrdfParams::from_gltf_pbr`]).
+#[derive(Clone, Copy, Debug)]
+pub struct MetallicRoughnessMap {
+    /// Index into [`Scene::textures`] (linear RGB texels).
+    pub texture: usize,
+    /// The material's base colour and factors.
+    pub pbr: GltfPbr,
 }
 
 impl Material {
@@ -142,6 +157,36 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// The BRDF of material `material` at texture coordinate `uv`: `brdf` (the material's, or
+    /// a projection of it) with the base-colour texture multiplying Kd, or, for a material
+    /// with a metallicRoughnessTexture, the BRDF its texels give there.
+    #[inline]
+    pub fn brdf_at(&self, material: usize, brdf: BrdfParams, uv: Vec2) -> BrdfParams {
+        let m = &self.materials[material];
+        let mut b = match m
+            .metallic_roughness
+            .and_then(|mr| Some((mr.pbr, self.textures.get(mr.texture)?)))
+        {
+            Some((pbr, t)) => {
+                // Bilinear weights sum to 1 only up to rounding: a texel of exactly 1 (a fully
+                // rough dielectric, mapped to `diffuse`) must not come back as 0.99999994 and
+                // turn into a GGX lobe.
+                let snap = |c: f32| if c > 1.0 - 1e-6 { 1.0 } else { c.max(0.0) };
+                let texel = t.sample(uv);
+                BrdfParams::from_gltf_pbr(
+                    pbr.base,
+                    pbr.metallic * snap(texel.z),
+                    pbr.roughness * snap(texel.y),
+                )
+            }
+            None => brdf,
+        };
+        if let Some(t) = m.base_color_texture.and_then(|t| self.textures.get(t)) {
+            b.kd *= t.sample(uv);
+        }
+        b
+    }
+
     /// The shading normal at barycentrics `(u, v)` of `triangle` for its unit interpolated
     /// normal `ns`: bent by its material's normal map where it has one
     /// ([`prt_formats::normal_map::perturb`]), else `ns`.

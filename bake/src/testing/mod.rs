@@ -61,6 +61,7 @@ impl SceneBuilder {
             brdf,
             base_color_texture: None,
             normal_texture: None,
+            metallic_roughness: None,
             emission,
             emissive_texture: None,
             editable,

@@ -4,6 +4,7 @@
 mod allocation;
 mod closed_forms;
 mod convergence;
+mod metallic_roughness;
 mod normal_maps;
 mod pixel_behaviour;
 mod pixel_exact;

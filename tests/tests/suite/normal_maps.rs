@@ -13,10 +13,9 @@ use prt_runtime::{PixelRelighter, VertexRelighter};
 use prt_tests::{bake_to_file, relative_l2, temp_path};
 
 /// A square of side 2 in the XZ plane facing +Y, made of `n x n` cells, with texture
-/// coordinates u = (x + 1) / 2 and v = (z + 1) / 2: the image's right is +X and, since glTF's
-/// v runs down the image, its up is -Z. Its material carries a constant normal map that
-/// encodes the unit tangent-space vector `tilt`.
-fn mapped_square(b: &mut SceneBuilder, n: u32, material: u32) {
+/// coordinates u = (x + 1) / 2 and v = (z + 1) / 2 once [`square_uvs`] sets them: the image's
+/// right is +X and, since glTF's v runs down the image, its up is -Z.
+pub(crate) fn mapped_square(b: &mut SceneBuilder, n: u32, material: u32) {
     let mut p = Vec::new();
     for j in 0..=n {
         for i in 0..=n {
@@ -36,14 +35,19 @@ fn mapped_square(b: &mut SceneBuilder, n: u32, material: u32) {
     b.mesh(&p, &vec![Vec3::Y; p.len()], &t, material);
 }
 
-/// Gives the scene's vertices the square's texture coordinates and material `m` a constant
-/// normal map encoding `tilt` (unit, tangent space), stored decoded as the loader does.
-fn add_map(scene: &mut Scene, m: usize, tilt: Vec3) {
+/// Gives the scene's vertices the square's texture coordinates (every vertex lies on it).
+pub(crate) fn square_uvs(scene: &mut Scene) {
     scene.uvs = scene
         .positions
         .iter()
         .map(|p| Vec2::new((p.x + 1.0) / 2.0, (p.z + 1.0) / 2.0))
         .collect();
+}
+
+/// Gives the scene's vertices the square's texture coordinates and material `m` a constant
+/// normal map encoding `tilt` (unit, tangent space), stored decoded as the loader does.
+fn add_map(scene: &mut Scene, m: usize, tilt: Vec3) {
+    square_uvs(scene);
     // The texel that encodes `tilt` (c = (t + 1) / 2), decoded at scale 1.
     let c = ((tilt + Vec3::ONE) * 0.5).to_array();
     let decoded = Vec3::from_array(prt_formats::normal_map::decode_texel(c, 1.0));

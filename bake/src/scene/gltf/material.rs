@@ -10,9 +10,10 @@ use super::texture::Encoding;
 use super::Loader;
 use crate::brdf::{BrdfParams, Family, ALPHA_RANGE, SHININESS_RANGE};
 use crate::config::MaterialConfig;
+use crate::config::Mode;
 use crate::scene::error::BrdfConfigError;
 use crate::scene::error::MaterialError;
-use crate::scene::{Material, SceneError};
+use crate::scene::{Material, MetallicRoughnessMap, SceneError};
 
 /// Name given to the material of primitives that have none.
 pub const DEFAULT_MATERIAL_NAME: &str = "default";
@@ -86,13 +87,6 @@ impl Loader<'_> {
             if !metallic.is_finite() || !roughness.is_finite() {
                 return Err(merr(MaterialError::Factors));
             }
-            if pbr.metallic_roughness_texture().is_some() {
-                self.warnings.push(format!(
-                    "{}: material \"{name}\": metallicRoughnessTexture is ignored (one BRDF per \
-                     material); the factors are used",
-                    self.path.display()
-                ));
-            }
             let strength = m.emissive_strength().unwrap_or(1.0);
             let emission = Vec3::from_array(m.emissive_factor()) * strength;
             if !emission.is_finite() || emission.min_element() < 0.0 {
@@ -140,6 +134,10 @@ impl Loader<'_> {
                 roughness,
             };
             let cfg = self.config.material(&name);
+            let metallic_roughness = match pbr.metallic_roughness_texture() {
+                Some(info) => self.metallic_roughness(&name, cfg, info, gltf_pbr)?,
+                None => None,
+            };
             let brdf = resolve_brdf(Some(gltf_pbr), cfg).map_err(|e| SceneError::Material {
                 path: self.config.config_path.clone(),
                 material: name.clone(),
@@ -151,6 +149,7 @@ impl Loader<'_> {
                 brdf,
                 base_color_texture,
                 normal_texture,
+                metallic_roughness,
                 emission,
                 emissive_texture,
                 editable: cfg.is_some_and(|c| c.editable),
@@ -170,12 +169,65 @@ impl Loader<'_> {
                 brdf,
                 base_color_texture: None,
                 normal_texture: None,
+                metallic_roughness: None,
                 emission: Vec3::ZERO,
                 emissive_texture: None,
                 editable: cfg.is_some_and(|c| c.editable),
             });
         }
         Ok(out)
+    }
+
+    /// The metallicRoughnessTexture of material `name`, where its BRDF may vary over the
+    /// surface: a fixed material whose BRDF the config leaves as the glTF made it. Otherwise
+    /// the texture is ignored, with a warning that says why (docs/conventions.md, "glTF
+    /// textures in each mode").
+    fn metallic_roughness(
+        &mut self,
+        name: &str,
+        cfg: Option<&MaterialConfig>,
+        info: gltf::texture::Info,
+        pbr: GltfPbr,
+    ) -> Result<Option<MetallicRoughnessMap>, SceneError> {
+        let why_not = match cfg {
+            Some(c) if c.editable => Some(
+                "an editable material has one set of parameters, the ones you edit; the \
+                 factors are used",
+            ),
+            Some(c)
+                if c.family.is_some()
+                    || c.kd.is_some()
+                    || c.ks.is_some()
+                    || c.alpha.is_some()
+                    || c.shininess.is_some() =>
+            {
+                Some("the config sets the material's BRDF")
+            }
+            _ => None,
+        };
+        if let Some(why) = why_not {
+            self.warnings.push(format!(
+                "{}: material \"{name}\": metallicRoughnessTexture is ignored: {why}",
+                self.path.display()
+            ));
+            return Ok(None);
+        }
+        if self.config.mode == Mode::Vertex {
+            self.warnings.push(format!(
+                "{}: material \"{name}\": metallicRoughnessTexture is used where light reflects \
+                 off it before reaching another surface; its last reflection towards the eye, \
+                 evaluated at run time in the per-vertex mode, uses the factors",
+                self.path.display()
+            ));
+        }
+        let texture = self.texture(
+            info.texture(),
+            info.tex_coord(),
+            Encoding::Linear,
+            name,
+            "metallicRoughnessTexture",
+        )?;
+        Ok(Some(MetallicRoughnessMap { texture, pbr }))
     }
 
     /// Warns when the config's `kd` or `ks` makes material `name` reflect more light than it

@@ -12,6 +12,8 @@ use crate::scene::{SceneError, Texture};
 pub(super) enum Encoding {
     /// Colour: sRGB-decoded to linear RGB.
     Srgb,
+    /// Data stored linearly (a metallicRoughnessTexture).
+    Linear,
     /// A normal map with its `scale`: linear texels decoded to tangent-space vectors
     /// ([`prt_formats::normal_map::decode_texel`]).
     Normal { scale: f32 },
@@ -23,6 +25,7 @@ impl Encoding {
     fn key(self) -> u32 {
         match self {
             Encoding::Srgb => u32::MAX,
+            Encoding::Linear => u32::MAX - 1,
             Encoding::Normal { scale } => scale.to_bits(),
         }
     }
@@ -90,6 +93,7 @@ impl Loader<'_> {
                     srgb_to_linear(p.0[1]),
                     srgb_to_linear(p.0[2]),
                 ),
+                Encoding::Linear => Vec3::from_array(p.0),
                 Encoding::Normal { scale } => {
                     Vec3::from_array(prt_formats::normal_map::decode_texel(p.0, scale))
                 }

@@ -118,3 +118,60 @@ fn normal_maps_are_decoded_linearly_with_their_scale() {
         "{warnings:?}"
     );
 }
+
+/// A metallicRoughnessTexture is read linearly and varies the BRDF of a fixed material the
+/// config leaves alone; it is ignored, saying why, for an editable material and for one whose
+/// BRDF the config sets; a per-vertex bake says that its last reflection uses the factors.
+#[test]
+fn metallic_roughness_textures_vary_fixed_materials_and_say_where_they_cannot() {
+    let dir = TempDir::new("metallic-roughness");
+    dir.write("mr.png", png(1, 1, vec![0, 128, 255]));
+    let mut doc = Doc::new();
+    let m = doc.material(json!({"name": "metal",
+        "pbrMetallicRoughness": {"metallicRoughnessTexture": {"index": 0},
+                                 "metallicFactor": 1.0, "roughnessFactor": 0.8}}));
+    doc.mesh(&TRI, None, Some(m));
+    let uv = doc.floats(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0], "VEC2");
+    doc.json["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(uv);
+    doc.json["textures"] = json!([{"source": 0}]);
+    doc.json["images"] = json!([{"uri": "mr.png"}]);
+    let gltf = doc.write_embedded(&dir);
+
+    let (scene, warnings) = load_with_warnings(&dir.config("")).unwrap();
+    assert!(
+        !warnings.iter().any(|w| w.contains("metallicRoughness")),
+        "{warnings:?}"
+    );
+    let map = scene.materials[0]
+        .metallic_roughness
+        .expect("a fixed material keeps its map");
+    assert_eq!((map.pbr.metallic, map.pbr.roughness), (1.0, 0.8));
+    let texel = scene.textures[map.texture].texels[0];
+    assert!(
+        texel.abs_diff_eq(Vec3::new(0.0, 128.0 / 255.0, 1.0), 1e-6),
+        "linear, not sRGB: {texel}"
+    );
+
+    let ignored = |extra: &str, why: &str| {
+        let (scene, warnings) = load_with_warnings(&dir.config(extra)).unwrap();
+        assert!(scene.materials[0].metallic_roughness.is_none(), "{extra}");
+        assert!(
+            warnings.iter().any(|w| w.contains("\"metal\"")
+                && w.contains("metallicRoughnessTexture is ignored")
+                && w.contains(why)),
+            "{extra}: {warnings:?}"
+        );
+    };
+    ignored("[materials.metal]\neditable = true\n", "the ones you edit");
+    ignored("[materials.metal]\nalpha = 0.3\n", "the config sets");
+
+    let (scene, warnings) = load_with_warnings(&dir.config("mode = \"vertex\"\n")).unwrap();
+    assert!(scene.materials[0].metallic_roughness.is_some());
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.contains("\"metal\"") && w.contains("uses the factors")),
+        "{warnings:?}"
+    );
+    drop(gltf);
+}
