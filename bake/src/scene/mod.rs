@@ -81,6 +81,22 @@ pub struct MetallicRoughnessMap {
     pub pbr: GltfPbr,
 }
 
+impl MetallicRoughnessMap {
+    /// The factors scaled by the mean of `texture`'s texels (this map's texture): what one
+    /// BRDF for the whole material uses.
+    pub fn mean_pbr(&self, texture: &Texture) -> GltfPbr {
+        let n = texture.texels.len().max(1) as f64;
+        let (g, b) = texture.texels.iter().fold((0.0f64, 0.0f64), |(g, b), t| {
+            (g + f64::from(t.y), b + f64::from(t.z))
+        });
+        GltfPbr {
+            base: self.pbr.base,
+            metallic: self.pbr.metallic * (b / n) as f32,
+            roughness: self.pbr.roughness * (g / n) as f32,
+        }
+    }
+}
+
 impl Material {
     pub fn is_emissive(&self) -> bool {
         self.emission.max_element() > 0.0

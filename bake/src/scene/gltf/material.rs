@@ -134,11 +134,11 @@ impl Loader<'_> {
                 roughness,
             };
             let cfg = self.config.material(&name);
-            let metallic_roughness = match pbr.metallic_roughness_texture() {
+            let (metallic_roughness, described) = match pbr.metallic_roughness_texture() {
                 Some(info) => self.metallic_roughness(&name, cfg, info, gltf_pbr)?,
-                None => None,
+                None => (None, gltf_pbr),
             };
-            let brdf = resolve_brdf(Some(gltf_pbr), cfg).map_err(|e| SceneError::Material {
+            let brdf = resolve_brdf(Some(described), cfg).map_err(|e| SceneError::Material {
                 path: self.config.config_path.clone(),
                 material: name.clone(),
                 source: Box::new(e.into()),
@@ -178,48 +178,19 @@ impl Loader<'_> {
         Ok(out)
     }
 
-    /// The metallicRoughnessTexture of material `name`, where its BRDF may vary over the
-    /// surface: a fixed material whose BRDF the config leaves as the glTF made it. Otherwise
-    /// the texture is ignored, with a warning that says why (docs/conventions.md, "glTF
-    /// textures in each mode").
+    /// The metallicRoughnessTexture of material `name`: the glTF values one BRDF for the whole
+    /// material maps from (the factors scaled by the texture's mean: the factors alone are
+    /// often placeholders, (1, 1), that the texture scales down), and the map itself where
+    /// the BRDF may vary over the surface: a fixed material whose BRDF the config leaves as
+    /// the glTF made it. Elsewhere the variation is dropped, with a warning that says why
+    /// (docs/conventions.md, "glTF textures in each mode").
     fn metallic_roughness(
         &mut self,
         name: &str,
         cfg: Option<&MaterialConfig>,
         info: gltf::texture::Info,
         pbr: GltfPbr,
-    ) -> Result<Option<MetallicRoughnessMap>, SceneError> {
-        let why_not = match cfg {
-            Some(c) if c.editable => Some(
-                "an editable material has one set of parameters, the ones you edit; the \
-                 factors are used",
-            ),
-            Some(c)
-                if c.family.is_some()
-                    || c.kd.is_some()
-                    || c.ks.is_some()
-                    || c.alpha.is_some()
-                    || c.shininess.is_some() =>
-            {
-                Some("the config sets the material's BRDF")
-            }
-            _ => None,
-        };
-        if let Some(why) = why_not {
-            self.warnings.push(format!(
-                "{}: material \"{name}\": metallicRoughnessTexture is ignored: {why}",
-                self.path.display()
-            ));
-            return Ok(None);
-        }
-        if self.config.mode == Mode::Vertex {
-            self.warnings.push(format!(
-                "{}: material \"{name}\": metallicRoughnessTexture is used where light reflects \
-                 off it before reaching another surface; its last reflection towards the eye, \
-                 evaluated at run time in the per-vertex mode, uses the factors",
-                self.path.display()
-            ));
-        }
+    ) -> Result<(Option<MetallicRoughnessMap>, GltfPbr), SceneError> {
         let texture = self.texture(
             info.texture(),
             info.tex_coord(),
@@ -227,7 +198,51 @@ impl Loader<'_> {
             name,
             "metallicRoughnessTexture",
         )?;
-        Ok(Some(MetallicRoughnessMap { texture, pbr }))
+        let map = MetallicRoughnessMap { texture, pbr };
+        let mean = map.mean_pbr(&self.textures[texture]);
+        let family = |p: GltfPbr| BrdfParams::from_gltf_pbr(p.base, p.metallic, p.roughness).family;
+        let means = format!(
+            "the texture's mean (metallic {:.2}, roughness {:.2})",
+            mean.metallic, mean.roughness
+        );
+        let why_not = match cfg {
+            Some(c) if c.editable => Some(format!(
+                "an editable material has one set of parameters, the ones you edit; they start \
+                 at {means}. To bake the texture's variation instead, make it fixed \
+                 (`editable = false` in `[materials.{name}]` of the bake config)"
+            )),
+            // A `family` equal to the glTF's mapping (as `--print-config` writes it) changes
+            // nothing.
+            Some(c)
+                if c.family
+                    .is_some_and(|f| f != family(pbr) && f != family(mean))
+                    || c.kd.is_some()
+                    || c.ks.is_some()
+                    || c.alpha.is_some()
+                    || c.shininess.is_some() =>
+            {
+                Some("the config sets the material's BRDF".to_owned())
+            }
+            _ => None,
+        };
+        if let Some(why) = why_not {
+            self.warnings.push(format!(
+                "{}: material \"{name}\": metallicRoughnessTexture's variation is not baked: \
+                 {why}",
+                self.path.display()
+            ));
+            return Ok((None, mean));
+        }
+        if self.config.mode == Mode::Vertex {
+            self.warnings.push(format!(
+                "{}: material \"{name}\": metallicRoughnessTexture is used where light reflects \
+                 off it before reaching another surface; its last reflection towards the eye, \
+                 evaluated at run time in the per-vertex mode, uses one BRDF for the whole \
+                 material, {means}",
+                self.path.display(),
+            ));
+        }
+        Ok((Some(map), mean))
     }
 
     /// Warns when the config's `kd` or `ks` makes material `name` reflect more light than it

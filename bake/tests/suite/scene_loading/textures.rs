@@ -120,8 +120,10 @@ fn normal_maps_are_decoded_linearly_with_their_scale() {
 }
 
 /// A metallicRoughnessTexture is read linearly and varies the BRDF of a fixed material the
-/// config leaves alone; it is ignored, saying why, for an editable material and for one whose
-/// BRDF the config sets; a per-vertex bake says that its last reflection uses the factors.
+/// config leaves alone; one BRDF for the whole material (an editable one's starting values,
+/// the per-vertex last reflection) maps from the factors times the texture's mean; the
+/// variation is dropped, saying why, for an editable material and for one whose BRDF the
+/// config sets; a per-vertex bake says what its last reflection uses.
 #[test]
 fn metallic_roughness_textures_vary_fixed_materials_and_say_where_they_cannot() {
     let dir = TempDir::new("metallic-roughness");
@@ -152,25 +154,43 @@ fn metallic_roughness_textures_vary_fixed_materials_and_say_where_they_cannot() 
         "linear, not sRGB: {texel}"
     );
 
+    // One BRDF for the whole material maps from the factors times the texture's mean:
+    // metallic 1 x 1, roughness 0.8 x 128/255 (GGX alpha = roughness^2), not the factors'
+    // roughness 0.8.
+    let mean_alpha = (0.8f32 * 128.0 / 255.0).powi(2);
+    assert!((scene.materials[0].brdf.param - mean_alpha).abs() < 1e-5);
     let ignored = |extra: &str, why: &str| {
         let (scene, warnings) = load_with_warnings(&dir.config(extra)).unwrap();
         assert!(scene.materials[0].metallic_roughness.is_none(), "{extra}");
+        if extra.contains("editable") {
+            assert!(
+                (scene.materials[0].brdf.param - mean_alpha).abs() < 1e-5,
+                "{extra}: the texture's mean"
+            );
+        }
         assert!(
             warnings.iter().any(|w| w.contains("\"metal\"")
-                && w.contains("metallicRoughnessTexture is ignored")
+                && w.contains("metallicRoughnessTexture's variation is not baked")
                 && w.contains(why)),
             "{extra}: {warnings:?}"
         );
     };
     ignored("[materials.metal]\neditable = true\n", "the ones you edit");
     ignored("[materials.metal]\nalpha = 0.3\n", "the config sets");
+    ignored(
+        "[materials.metal]\nfamily = \"blinn-phong\"\n",
+        "the config sets",
+    );
+    // Made fixed as the warning says, with the family `--print-config` writes: honoured.
+    let fixed = "[materials.metal]\neditable = false\nfamily = \"ggx\"\n";
+    let (scene, _) = load_with_warnings(&dir.config(fixed)).unwrap();
+    assert!(scene.materials[0].metallic_roughness.is_some());
 
     let (scene, warnings) = load_with_warnings(&dir.config("mode = \"vertex\"\n")).unwrap();
     assert!(scene.materials[0].metallic_roughness.is_some());
     assert!(
-        warnings
-            .iter()
-            .any(|w| w.contains("\"metal\"") && w.contains("uses the factors")),
+        warnings.iter().any(|w| w.contains("\"metal\"")
+            && w.contains("the texture's mean (metallic 1.00, roughness 0.40)")),
         "{warnings:?}"
     );
     drop(gltf);
