@@ -26,6 +26,12 @@ const NEAR_PLANE_RELATIVE: f32 = 1e-5;
 /// The visibility bytes per vertex of a group with a shading basis (6 x 16 x 16).
 const VISIBILITY_BYTES: usize = 6 * 16 * 16;
 
+/// The cubes the shader reads from its cube texture, in layer order: the prefiltered cubes,
+/// then the open sky's irradiance table when the light has one.
+fn cube_list<'a>(s: &VertexSurface<'a>) -> Vec<&'a prt_formats::lighting::CubeMap> {
+    s.prefiltered().iter().chain(s.open_sky()).collect()
+}
+
 /// `Frame` in the shader.
 #[repr(C)]
 #[derive(Clone, Copy, Default, bytemuck::Pod, bytemuck::Zeroable)]
@@ -49,7 +55,9 @@ struct FrameBlock {
     vertex_info_at: u32,
     texture_info_at: u32,
     cube_size_at: u32,
-    pad: [u32; 2],
+    /// The open sky's irradiance table among the cubes (after the prefiltered ones), or -1.
+    open_sky_cube: i32,
+    pad: u32,
 }
 
 /// `Material` in the shader.
@@ -274,7 +282,7 @@ impl VertexGpu {
             tables.extend(texels.iter().flatten());
         }
         let cube_size_at = index.len() as u32;
-        index.extend(s.prefiltered().iter().map(|c| c.size() as u32));
+        index.extend(cube_list(s).iter().map(|c| c.size() as u32));
         let tables_bytes = 4 * tables.len() as u64;
         if tables.len() > u32::MAX as usize {
             return Err(GpuError::Limit {
@@ -414,6 +422,10 @@ impl VertexGpu {
             vertex_info_at,
             texture_info_at,
             cube_size_at,
+            open_sky_cube: match s.open_sky() {
+                Some(_) => s.prefiltered().len() as i32,
+                None => -1,
+            },
             ..Default::default()
         };
         let bind_group = Self::bind_group(
@@ -540,7 +552,7 @@ impl VertexGpu {
     /// a device feature for 32-bit float texels and interpolates with a few bits of weight
     /// precision, so the shader loads the four texels and weighs them itself, as the CPU does.
     fn cube_texture(ctx: &GpuContext, s: &VertexSurface) -> Result<wgpu::Texture, GpuError> {
-        let cubes = s.prefiltered();
+        let cubes = cube_list(s);
         let side = cubes.iter().map(|c| c.size()).max().unwrap_or(1).max(1) as u32;
         let layers = (6 * cubes.len()).max(6) as u32;
         let limits = ctx.limits();
@@ -603,7 +615,16 @@ impl VertexGpu {
             self.offsets.env_width = env.width as u32;
             self.offsets.env_height = env.height as u32;
             let side = self.cubes.width();
-            for (c, cube) in s.prefiltered().iter().enumerate() {
+            let cubes = cube_list(s);
+            if cubes.len() as i32
+                != s.prefiltered().len() as i32 + i32::from(s.open_sky().is_some())
+                || (self.offsets.open_sky_cube >= 0) != s.open_sky().is_some()
+            {
+                return Err(GpuError::Unsupported(
+                    "the light's cubes changed in number after opening".into(),
+                ));
+            }
+            for (c, cube) in cubes.iter().enumerate() {
                 let n = cube.size();
                 if n as u32 > side || 6 * (c as u32 + 1) > self.cubes.depth_or_array_layers() {
                     return Err(GpuError::Unsupported(

@@ -33,7 +33,8 @@ struct Frame {
     vertex_info_at: u32,
     texture_info_at: u32,
     cube_size_at: u32,
-    pad0: u32,
+    // The open sky's irradiance table among the cubes, or -1.
+    open_sky_cube: i32,
     pad1: u32,
 }
 
@@ -599,8 +600,18 @@ fn shade(t: u32, bary: vec2<f32>) -> vec3<f32> {
         let uv = w.x * uv_of(v0) + w.y * uv_of(v1) + w.z * uv_of(v2);
         tex = texture_rgb(u32(m.texture), uv);
     }
+    var e_scale = vec3<f32>(1.0);
+    if bent && frame.open_sky_cube >= 0 {
+        // The open sky's irradiance at the bent normal over that at n (runtime
+        // `bent_irradiance_scale`); a channel the sky leaves dark at n keeps its irradiance.
+        let c = u32(frame.open_sky_cube);
+        let open_n = cube_bilinear(c, face_st(n));
+        let open_nb = cube_bilinear(c, face_st(ns));
+        let horizon = 0.5 * (1.0 + dot(n, ns));
+        e_scale = select(vec3<f32>(1.0), horizon * open_nb / open_n, open_n > vec3<f32>(1e-12));
+    }
     let e = rec3(r0, r1, r2, w, E_AT);
-    var b = m.kd * tex * (1.0 / PI) * e;
+    var b = m.kd * tex * (1.0 / PI) * (e * e_scale);
     if !glossy {
         // The irradiance's kept Haar terms and SH can ring below 0 too.
         return max(b, vec3<f32>(0.0));

@@ -306,11 +306,7 @@ pub(super) fn light_stage(
         .collect();
     // The open sky's irradiance per normal, for vertices whose irradiance row is the
     // occluded part (`open` flags, schema 4): computed only when some vertex needs it.
-    let open_sky = if scene.groups.iter().any(|l| l.t0_open.contains(&true)) {
-        Some(super::light::open_sky(&light.cube)?)
-    } else {
-        None
-    };
+    let open_sky = &light.open_sky;
     let mut out = Vec::with_capacity(meta.groups.len());
     for (g, (gm, layout)) in meta.groups.iter().zip(&scene.groups).enumerate() {
         let nv = layout.vertices.len();
@@ -342,7 +338,7 @@ pub(super) fn light_stage(
                     *ok = acc.map(|a| a * gm.scale_t0);
                 }
                 // E = the open sky's irradiance at the normal - the occluded part's dot.
-                if let (Some(table), Some(true)) = (&open_sky, layout.t0_open.get(v)) {
+                if let (Some(table), Some(true)) = (open_sky, layout.t0_open.get(v)) {
                     let n = scene.normals[layout.vertices[v] as usize].map(f64::from);
                     let open = table.lookup_bilinear(n);
                     if let Some(e) = o.last_mut() {

@@ -37,6 +37,11 @@ pub struct LightCoefficients {
     /// direction: `integral G(angle(w, r)) L(w) dw / integral G dw`, on the prefilter's own
     /// cube size (width 0: `cube`).
     pub prefiltered: Vec<CubeMap>,
+    /// The open sky's irradiance per normal (6 x 32 x 32, `open_sky`), when the bake needs
+    /// it: vertices whose irradiance row is the occluded part, or a normal map (the view
+    /// stage scales a pixel's irradiance by the open sky's at the bent normal over that at
+    /// the interpolated one).
+    pub open_sky: Option<CubeMap>,
 }
 
 impl LightCoefficients {
@@ -79,6 +84,7 @@ impl LightCoefficients {
             two_bounce,
             widths_deg: widths_deg.to_vec(),
             prefiltered,
+            open_sky: None,
         })
     }
 }

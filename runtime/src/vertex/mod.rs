@@ -548,7 +548,7 @@ impl VertexRelighter {
             return Ok(None);
         }
         let start = Instant::now();
-        let coefficients = light_coefficients(
+        let mut coefficients = light_coefficients(
             self.scaled_environment
                 .as_ref()
                 .unwrap_or(&self.environment),
@@ -556,6 +556,13 @@ impl VertexRelighter {
             &self.prefilter_widths,
             &mut self.prefiltered_unturned,
         )?;
+        // The open sky's irradiance per normal: for vertices whose irradiance row is the
+        // occluded part, and for the view stage's bent normals.
+        let open_rows = self.scene.groups.iter().any(|l| l.t0_open.contains(&true));
+        let normal_maps = self.meta.material_normal_maps.iter().any(Option::is_some);
+        if open_rows || normal_maps {
+            coefficients.open_sky = Some(light::open_sky(&coefficients.cube)?);
+        }
         let groups = incident::light_stage(&self.file, &self.meta, &self.scene, &coefficients)?;
         self.light = Some(LightState {
             coefficients,

@@ -10,7 +10,8 @@
 //!   the texture coordinate are interpolated with the same weights;
 //! - **a normal map** (the material's, `prt_formats::normal_map`) bends `n` per pixel to
 //!   `n'`; the lobe below is then evaluated about `n'` (`wo`'s frame, the mirror direction)
-//!   while I1's SH is read in the frame of `n`, where the records are. Without one, `n' = n`;
+//!   while I1's SH is read in the frame of `n`, where the records are, and `E` is scaled per
+//!   channel by the open sky's irradiance at `n'` over that at `n`. Without one, `n' = n`;
 //! - **the side without data**: the baker stores light arriving on the side the vertex normal
 //!   points to. When `wo` is at or below the interpolated normal's horizon (the back of a
 //!   surface, or a silhouette where the interpolated normal turns away), the pixel is black;
@@ -425,8 +426,13 @@ impl ViewInputs<'_> {
             None => [1.0; 3],
         };
         let inv_pi = std::f32::consts::FRAC_1_PI;
-        let mut b: [f32; 3] =
-            std::array::from_fn(|c| material.kd[c] * tex[c] * inv_pi * lerp(E_AT + c));
+        let e_scale = match (bent, &self.light.open_sky) {
+            (Some(nb), Some(table)) => bent_irradiance_scale(table, n, nb),
+            _ => [1.0; 3],
+        };
+        let mut b: [f32; 3] = std::array::from_fn(|c| {
+            material.kd[c] * tex[c] * inv_pi * (lerp(E_AT + c) * e_scale[c])
+        });
         let (Some(lobe), Some(taps), Some((tangent, bitangent, wo_l))) =
             (&self.lobes[m], &material.taps, frame)
         else {
@@ -509,6 +515,38 @@ impl ViewInputs<'_> {
         // (on vitrine under the sky map, 11 of 27 648 values, down to -0.02). Clamp them.
         b.map(|v| v.max(0.0))
     }
+}
+
+/// What a normal map does to the irradiance per channel: the open sky's irradiance at the bent
+/// normal `nb` over that at the interpolated one `n` (`table`, the light's
+/// `LightCoefficients::open_sky`), times the share of the bent hemisphere above the surface's
+/// plane. Exact for a pixel under a uniform open sky; elsewhere it assumes the light below the
+/// plane in the bent hemisphere is the hemisphere's average, and, under occlusion, that the
+/// occlusion is the same around both normals. A channel the sky leaves dark at `n` keeps its
+/// irradiance.
+#[inline(always)]
+fn bent_irradiance_scale(
+    table: &prt_formats::lighting::CubeMap,
+    n: [f32; 3],
+    nb: [f32; 3],
+) -> [f32; 3] {
+    let at = |d: [f32; 3]| {
+        let (face, s, t) = direction_to_face_st(d.map(f64::from));
+        table.lookup_bilinear_face_st(face, s, t)
+    };
+    let (open_n, open_nb) = (at(n), at(nb));
+    // The surface hides the part of the bent normal's hemisphere below its own plane (the
+    // reference takes no light from there): under a uniform sky the rest receives the fraction
+    // (1 + cos) / 2 of the hemisphere's irradiance, cos the angle between the two normals.
+    let cos = n[0] * nb[0] + n[1] * nb[1] + n[2] * nb[2];
+    let horizon = 0.5 * (1.0 + cos);
+    std::array::from_fn(|c| {
+        if open_n[c] > 1e-12 {
+            horizon * open_nb[c] / open_n[c]
+        } else {
+            1.0
+        }
+    })
 }
 
 /// `ShadingBasis::reflected` for three channels: `incident` is `U[c][ch]` (`r_i x 3`),

@@ -246,6 +246,14 @@ impl<'a> VertexSurface<'a> {
         }
     }
 
+    /// The open sky's irradiance per normal of the light **turned** (read at world normals),
+    /// when the bake has a normal map or open-sky irradiance rows: a pixel of a normal-mapped
+    /// material scales its irradiance by this at the bent normal over this at the
+    /// interpolated one.
+    pub fn open_sky(&self) -> Option<&'a CubeMap> {
+        self.r.light.as_ref()?.coefficients.open_sky.as_ref()
+    }
+
     /// The map that lights the scene (intensity applied), unturned.
     pub fn environment(&self) -> &'a LatLongMap {
         self.r.lighting_map()
