@@ -1,0 +1,67 @@
+//! The uniform and storage blocks the per-vertex shader reads (`shaders/vertex.wgsl`'s
+//! `Frame`, `Material` and `Basis`), field for field: `#[repr(C)]` with the WGSL layout's
+//! padding, so `bytemuck` uploads them as they are.
+
+/// `Frame` in the shader.
+#[repr(C)]
+#[derive(Clone, Copy, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub(super) struct FrameBlock {
+    pub(super) eye: [f32; 4],
+    pub(super) right: [f32; 4],
+    pub(super) up: [f32; 4],
+    pub(super) forward: [f32; 4],
+    pub(super) back: [[f32; 4]; 3],
+    pub(super) tan_half_fov: f32,
+    pub(super) aspect: f32,
+    pub(super) near: f32,
+    pub(super) turned: u32,
+    pub(super) width: f32,
+    pub(super) height: f32,
+    pub(super) env_width: u32,
+    pub(super) env_height: u32,
+    pub(super) normals_at: u32,
+    pub(super) uvs_at: u32,
+    pub(super) materials_of_at: u32,
+    pub(super) vertex_info_at: u32,
+    pub(super) texture_info_at: u32,
+    pub(super) cube_size_at: u32,
+    /// The open sky's irradiance table among the cubes (after the prefiltered ones), or -1.
+    pub(super) open_sky_cube: i32,
+    pub(super) pad: u32,
+}
+
+/// `Material` in the shader.
+#[repr(C)]
+#[derive(Clone, Copy, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub(super) struct MaterialBlock {
+    pub(super) kd: [f32; 3],
+    pub(super) group: i32,
+    pub(super) ks: [f32; 3],
+    pub(super) texture: i32,
+    pub(super) basis: i32,
+    pub(super) core_at: u32,
+    pub(super) taps_len: u32,
+    pub(super) tap0: u32,
+    pub(super) tap0_w: f32,
+    pub(super) tap1: u32,
+    pub(super) tap1_w: f32,
+    pub(super) normal_map: i32,
+}
+
+/// `Basis` in the shader.
+#[repr(C)]
+#[derive(Clone, Copy, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub(super) struct BasisBlock {
+    pub(super) n_theta: u32,
+    pub(super) n_phi: u32,
+    pub(super) r_o: u32,
+    pub(super) r_i: u32,
+    pub(super) n_widths: u32,
+    pub(super) n_dirs: u32,
+    pub(super) u_o_at: u32,
+    pub(super) u_o_pole_at: u32,
+    pub(super) refl_at: u32,
+    pub(super) refl_pole_at: u32,
+    pub(super) widths_at: u32,
+    pub(super) pad: u32,
+}
