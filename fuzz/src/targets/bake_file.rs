@@ -72,6 +72,7 @@ const DICT: &[&str] = &[
     "kd",
     "basis",
     "lobe",
+    "own",
     "kind",
     "index",
     "diffuse",
