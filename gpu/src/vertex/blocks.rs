@@ -1,6 +1,9 @@
 //! The uniform and storage blocks the per-vertex shader reads (`shaders/vertex.wgsl`'s
 //! `Frame`, `Material` and `Basis`), field for field: `#[repr(C)]` with the WGSL layout's
-//! padding, so `bytemuck` uploads them as they are.
+//! padding, so `bytemuck` uploads them as they are; and the order of the cubes in its cube
+//! texture.
+
+use prt_runtime::gpu_surface::VertexSurface;
 
 /// `Frame` in the shader.
 #[repr(C)]
@@ -64,4 +67,10 @@ pub(super) struct BasisBlock {
     pub(super) refl_pole_at: u32,
     pub(super) widths_at: u32,
     pub(super) pad: u32,
+}
+
+/// The cubes the shader reads from its cube texture, in layer order: the prefiltered cubes,
+/// then the open sky's irradiance table when the light has one.
+pub(super) fn cube_list<'a>(s: &VertexSurface<'a>) -> Vec<&'a prt_formats::lighting::CubeMap> {
+    s.prefiltered().iter().chain(s.open_sky()).collect()
 }

@@ -22,8 +22,7 @@ use crate::readback::Readback;
 mod blocks;
 mod upload;
 
-use blocks::{BasisBlock, FrameBlock, MaterialBlock};
-use upload::cube_list;
+use blocks::{cube_list, BasisBlock, FrameBlock, MaterialBlock};
 
 /// The rasterizer's near plane, relative to the scene's depth (the CPU rasterizer's
 /// `NEAR_PLANE_RELATIVE`, here of the bounding box's farthest corner).

@@ -4,16 +4,10 @@
 
 use prt_runtime::gpu_surface::VertexSurface;
 
-use super::blocks::MaterialBlock;
+use super::blocks::{cube_list, MaterialBlock};
 use super::{check_binding, VertexGpu};
 use crate::context::GpuContext;
 use crate::error::GpuError;
-
-/// The cubes the shader reads from its cube texture, in layer order: the prefiltered cubes,
-/// then the open sky's irradiance table when the light has one.
-pub(super) fn cube_list<'a>(s: &VertexSurface<'a>) -> Vec<&'a prt_formats::lighting::CubeMap> {
-    s.prefiltered().iter().chain(s.open_sky()).collect()
-}
 
 impl VertexGpu {
     /// The prefiltered cubes' texture: one 2D array, six layers per cube, each cube in the
