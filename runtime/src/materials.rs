@@ -83,6 +83,10 @@ pub struct MaterialInfo {
     pub editable: bool,
     /// Whether a base-colour texture modulates its `kd`.
     pub textured: bool,
+    /// Whether its BRDF varies over its surface (a fixed material baked with its glTF
+    /// metallicRoughnessTexture, one `own` slot): `params` are then the texture's mean, what
+    /// the per-vertex mode's last reflection uses.
+    pub varying: bool,
     /// Every parameter its family has (`kd`; `ks` and the lobe parameter for a glossy
     /// family), in the order of [`Param::ALL`].
     pub params: Vec<ParamInfo>,
@@ -202,6 +206,7 @@ impl Materials {
                     family: m.family,
                     editable: m.editable,
                     textured: m.textured,
+                    varying: m.slots.contains(&prt_formats::pixel::SlotKind::Own),
                     params,
                 }
             })

@@ -338,11 +338,16 @@ fn list_materials(r: &Relighter) -> Result<()> {
             })
             .collect();
         println!(
-            "{:<20} {:<12} {} {}",
+            "{:<20} {:<12} {} {}{}",
             m.name,
             m.family,
             if m.editable { "editable" } else { "fixed   " },
-            params.join(" ")
+            params.join(" "),
+            if m.varying {
+                " (varies over its surface by its metallicRoughnessTexture; these are the mean)"
+            } else {
+                ""
+            }
         );
     }
     Ok(())

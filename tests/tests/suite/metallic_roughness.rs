@@ -147,10 +147,11 @@ fn a_metallic_roughness_texture_varies_the_brdf_in_the_reference_and_the_per_pix
         layout.materials[0].slots,
         vec![prt_formats::pixel::SlotKind::Own]
     );
-    let relit = PixelRelighter::open(&path)
-        .expect("open")
-        .render()
-        .expect("relight");
+    let relighter = PixelRelighter::open(&path).expect("open");
+    // Listed as varying (`relight --list` says so).
+    let info = &relighter.materials()[0];
+    assert!(info.varying && !info.editable, "{info:?}");
+    let relit = relighter.render().expect("relight");
     let reference: Vec<[f32; 3]> = reference.pixels.iter().map(|p| p.to_array()).collect();
     let err = relative_l2(&relit.pixels, &reference);
     assert!(err < 1e-5, "relit vs reference: {err:.2e}");
