@@ -189,9 +189,11 @@ impl<'a> Integrator<'a> {
         if ns == Vec3::ZERO {
             ns = ng;
         }
+        let [ua, ub, uc] = tri.map(|i| scene.uvs[i as usize]);
+        let uv = ua * w + ub * u + uc * v;
         // The material's normal map bends the shading normal (before the sides are chosen:
         // the map is drawn on the surface's front).
-        ns = scene.bent_normal(hit.triangle, hit.bary, ns);
+        ns = scene.bent_normal(hit.triangle, uv, ns);
         // Two-sided surfaces: face the normals towards the incoming ray.
         if ng.dot(dir) > 0.0 {
             ng = -ng;
@@ -199,8 +201,6 @@ impl<'a> Integrator<'a> {
         if ns.dot(ng) < 0.0 {
             ns = -ns;
         }
-        let [ua, ub, uc] = tri.map(|i| scene.uvs[i as usize]);
-        let uv = ua * w + ub * u + uc * v;
         let (tangent, bitangent) = orthonormal_basis(ns);
         Surface {
             p,

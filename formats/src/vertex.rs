@@ -339,26 +339,22 @@ impl VertexBakeMeta {
         if self.material_textures.len() != self.materials.len() {
             return Err("material_textures does not have one entry per material".into());
         }
-        if let Some(t) = self
-            .material_textures
-            .iter()
-            .flatten()
-            .find(|&&t| t as usize >= self.textures.len())
-        {
-            return Err(format!("material texture {t} out of range"));
-        }
         if !self.material_normal_maps.is_empty()
             && self.material_normal_maps.len() != self.materials.len()
         {
             return Err("material_normal_maps does not have one entry per material".into());
         }
-        if let Some(t) = self
-            .material_normal_maps
-            .iter()
-            .flatten()
-            .find(|&&t| t as usize >= self.textures.len())
-        {
-            return Err(format!("material normal map {t} out of range"));
+        for (what, list) in [
+            ("texture", &self.material_textures),
+            ("normal map", &self.material_normal_maps),
+        ] {
+            if let Some(t) = list
+                .iter()
+                .flatten()
+                .find(|&&t| t as usize >= self.textures.len())
+            {
+                return Err(format!("material {what} {t} out of range"));
+            }
         }
         let sorted = |v: &[u32]| v.windows(2).all(|w| w[0] < w[1]);
         if !sorted(&self.t2_slots) || self.t2_slots.iter().any(|&j| j >= total_slots) {

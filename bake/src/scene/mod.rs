@@ -203,10 +203,10 @@ impl Scene {
         b
     }
 
-    /// The shading normal at barycentrics `(u, v)` of `triangle` for its unit interpolated
+    /// The shading normal at texture coordinate `uv` of `triangle` for its unit interpolated
     /// normal `ns`: bent by its material's normal map where it has one
     /// ([`prt_formats::normal_map::perturb`]), else `ns`.
-    pub fn bent_normal(&self, triangle: u32, bary: Vec2, ns: Vec3) -> Vec3 {
+    pub fn bent_normal(&self, triangle: u32, uv: Vec2, ns: Vec3) -> Vec3 {
         let material = self.triangle_material[triangle as usize] as usize;
         let Some(map) = self.materials[material]
             .normal_texture
@@ -216,16 +216,14 @@ impl Scene {
         };
         let tri = self.triangles[triangle as usize];
         let p = tri.map(|i| self.positions[i as usize].to_array());
-        let uv = tri.map(|i| self.uvs[i as usize]);
-        let Some(axes) = prt_formats::normal_map::triangle_uv_axes(p, uv.map(|t| t.to_array()))
-        else {
+        let uvs = tri.map(|i| self.uvs[i as usize].to_array());
+        let Some(axes) = prt_formats::normal_map::triangle_uv_axes(p, uvs) else {
             return ns;
         };
-        let at = uv[0] * (1.0 - bary.x - bary.y) + uv[1] * bary.x + uv[2] * bary.y;
         Vec3::from_array(prt_formats::normal_map::perturb(
             ns.to_array(),
             axes,
-            map.sample(at).to_array(),
+            map.sample(uv).to_array(),
         ))
     }
 

@@ -340,21 +340,25 @@ impl ViewInputs<'_> {
             return [0.0; 3];
         };
         let glossy = self.lobes[m].is_some() && material.taps.is_some();
+        // The texture coordinates, read by the texture and the normal map (only where either
+        // is present: most pixels have neither).
+        let uvs = tri.map(|v| s.uvs[v as usize]);
+        let uv = || {
+            [
+                w[0] * uvs[0][0] + w[1] * uvs[1][0] + w[2] * uvs[2][0],
+                w[0] * uvs[0][1] + w[1] * uvs[1][1] + w[2] * uvs[2][1],
+            ]
+        };
         // The shading normal: `n`, or `n` bent by the material's normal map. The records stay
         // in the frame of `n` (the data's); the BRDF is evaluated in the frame of `ns`.
         let bent = material.normal_map.and_then(|i| {
             let tx = &s.textures[i];
             let p = tri.map(|v| s.positions[v as usize]);
-            let uvs = tri.map(|v| s.uvs[v as usize]);
             let axes = triangle_uv_axes(p, uvs)?;
-            let uv = [
-                w[0] * uvs[0][0] + w[1] * uvs[1][0] + w[2] * uvs[2][0],
-                w[0] * uvs[0][1] + w[1] * uvs[1][1] + w[2] * uvs[2][1],
-            ];
             Some(perturb(
                 n,
                 axes,
-                sample_bilinear(&tx.texels, tx.width, tx.height, uv),
+                sample_bilinear(&tx.texels, tx.width, tx.height, uv()),
             ))
         });
         let ns = bent.unwrap_or(n);
@@ -416,12 +420,7 @@ impl ViewInputs<'_> {
         let tex = match material.texture {
             Some(i) => {
                 let tx = &s.textures[i];
-                let uvs = tri.map(|v| s.uvs[v as usize]);
-                let uv = [
-                    w[0] * uvs[0][0] + w[1] * uvs[1][0] + w[2] * uvs[2][0],
-                    w[0] * uvs[0][1] + w[1] * uvs[1][1] + w[2] * uvs[2][1],
-                ];
-                sample_bilinear(&tx.texels, tx.width, tx.height, uv)
+                sample_bilinear(&tx.texels, tx.width, tx.height, uv())
             }
             None => [1.0; 3],
         };
