@@ -247,6 +247,16 @@ fn each_corruption_is_refused_naming_the_tensor() {
             |b| b.meta.vertex_schema_version = 99,
             &["vertex schema version 99"],
         ),
+        (
+            "a normal map that is not among the textures",
+            |b| b.meta.material_normal_maps = vec![Some(7); b.meta.materials.len()],
+            &["material normal map 7 out of range"],
+        ),
+        (
+            "normal maps not one per material",
+            |b| b.meta.material_normal_maps = vec![None; b.meta.materials.len() + 1],
+            &["material_normal_maps", "one entry per material"],
+        ),
     ];
     for (what, corrupt, words) in cases {
         let mut b = two_quads();
