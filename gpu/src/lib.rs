@@ -40,6 +40,7 @@
 mod context;
 mod error;
 mod pixel;
+mod present;
 mod readback;
 mod vertex;
 
@@ -60,6 +61,19 @@ pub struct GpuStats {
     pub material_s: Option<f64>,
     /// Per-pixel: bytes of bake data the frame read on the device.
     pub bytes_read: Option<u64>,
+}
+
+/// Runs what the CPU does of a per-vertex frame's stages: the parts that do not grow with the
+/// vertex count when the device runs the rest, else the whole stages.
+fn prepare_vertex(
+    g: &vertex::VertexGpu,
+    r: &mut prt_runtime::VertexRelighter,
+) -> Result<prt_runtime::gpu_surface::Stages, GpuError> {
+    Ok(if g.device_stages() {
+        r.prepare_device_stages()?
+    } else {
+        r.prepare_stages()?
+    })
 }
 
 /// Each kind's device state, boxed: both are large (about 1-2 KB of handles) and a relighter
@@ -84,8 +98,10 @@ impl GpuRelighter {
         let gpu = match &mut relighter {
             Relighter::Pixel(r) => Backend::Pixel(Box::new(pixel::PixelGpu::new(ctx, r)?)),
             Relighter::Vertex(r) => {
-                r.prepare_stages()?;
-                Backend::Vertex(Box::new(vertex::VertexGpu::new(ctx, r)?))
+                r.prepare_device_stages()?;
+                let g = vertex::VertexGpu::new(ctx, r)?;
+                prepare_vertex(&g, r)?;
+                Backend::Vertex(Box::new(g))
             }
         };
         Ok(GpuRelighter {
@@ -103,6 +119,16 @@ impl GpuRelighter {
     /// size; per pixel the variant): the next render picks the changes up.
     pub fn relighter_mut(&mut self) -> &mut Relighter {
         &mut self.cpu
+    }
+
+    /// Per-vertex: whether the light and material stages' per-vertex work runs on the device
+    /// (`false`: a part of the bake exceeds a device limit, and the CPU runs the stages and
+    /// uploads their records); `None` for a per-pixel bake.
+    pub fn vertex_stages_on_device(&self) -> Option<bool> {
+        match &self.gpu {
+            Backend::Vertex(g) => Some(g.device_stages()),
+            Backend::Pixel(_) => None,
+        }
     }
 
     /// Hands the CPU relighter back (to render on the CPU after all).
@@ -134,7 +160,7 @@ impl GpuRelighter {
                 stats.bytes_read = Some(g.render_into(r, out)?);
             }
             (Backend::Vertex(g), Relighter::Vertex(r)) => {
-                let stages = r.prepare_stages()?;
+                let stages = prepare_vertex(g, r)?;
                 stats.light_s = stages.light_s;
                 stats.material_s = stages.material_s;
                 g.render_into(r, out)?;
@@ -164,7 +190,7 @@ impl GpuRelighter {
                 stats.bytes_read = Some(g.render_on_device(r)?);
             }
             (Backend::Vertex(g), Relighter::Vertex(r)) => {
-                let stages = r.prepare_stages()?;
+                let stages = prepare_vertex(g, r)?;
                 stats.light_s = stages.light_s;
                 stats.material_s = stages.material_s;
                 g.render_on_device(r)?;
@@ -175,16 +201,18 @@ impl GpuRelighter {
         Ok(stats)
     }
 
-    /// Per-vertex: renders the current view into a caller's texture view (format
-    /// `Rgba32Float`, the current size, made with `RENDER_ATTACHMENT` usage on the context's
-    /// device), so an engine or a viewer displays it without a copy through the host. A
-    /// per-pixel bake is refused ([`GpuError::Unsupported`]: its frame is a storage buffer,
-    /// read back with [`GpuRelighter::render_into`]).
+    /// Renders the current settings into a caller's texture view (format `Rgba32Float`,
+    /// the current image size, made with `RENDER_ATTACHMENT` usage on the context's device),
+    /// so an engine or a viewer displays it without a copy through the host: RGB the frame
+    /// [`GpuRelighter::render_into`] reads back, alpha 1. Another size, format or usage is
+    /// refused ([`GpuError::Unsupported`], naming it).
     pub fn render_to_view(&mut self, view: &wgpu::TextureView) -> Result<GpuStats, GpuError> {
         let start = Instant::now();
         match (&mut self.gpu, &mut self.cpu) {
             (Backend::Vertex(g), Relighter::Vertex(r)) => {
-                let stages = r.prepare_stages()?;
+                let (w, h) = r.size();
+                present::check_view(view, w, h)?;
+                let stages = prepare_vertex(g, r)?;
                 g.render_to_view(r, view)?;
                 Ok(GpuStats {
                     seconds: start.elapsed().as_secs_f64(),
@@ -193,9 +221,15 @@ impl GpuRelighter {
                     bytes_read: None,
                 })
             }
-            _ => Err(GpuError::Unsupported(
-                "a per-pixel frame is rendered into a storage buffer and read back".into(),
-            )),
+            (Backend::Pixel(g), Relighter::Pixel(r)) => {
+                let bytes_read = g.render_to_view(r, view)?;
+                Ok(GpuStats {
+                    seconds: start.elapsed().as_secs_f64(),
+                    bytes_read: Some(bytes_read),
+                    ..Default::default()
+                })
+            }
+            _ => Err(GpuError::Unsupported("the bake's kind changed".into())),
         }
     }
 }

@@ -16,6 +16,7 @@ use prt_runtime::{PixelRelighter, Variant};
 
 use crate::context::GpuContext;
 use crate::error::GpuError;
+use crate::present::{check_view, Present};
 use crate::readback::Readback;
 
 /// Invocations per workgroup (`WORKGROUP` in the shader).
@@ -65,6 +66,8 @@ pub(crate) struct PixelGpu {
     /// Host copies of the per-frame uploads, kept so a frame allocates nothing.
     column_data: Vec<[f32; 4]>,
     param_data: Vec<u8>,
+    /// Draws the frame into a caller's texture (made at the first such frame).
+    present: Option<Present>,
 }
 
 impl PixelGpu {
@@ -205,6 +208,7 @@ impl PixelGpu {
                 params_stride,
                 column_data: Vec::new(),
                 param_data: Vec::new(),
+                present: None,
             })
         })
     }
@@ -368,7 +372,7 @@ impl PixelGpu {
         r: &PixelRelighter,
         out: &mut [f32],
     ) -> Result<u64, GpuError> {
-        let bytes_read = self.frame(r, true)?;
+        let bytes_read = self.frame(r, true, None)?;
         self.readback.read(&self.ctx, |bytes| {
             out.copy_from_slice(bytemuck::cast_slice(bytes));
         })?;
@@ -378,14 +382,39 @@ impl PixelGpu {
     /// Relights the current material setting into the device's frame buffer and waits for
     /// it (no read-back): what the device's work alone costs, for the benchmark.
     pub(crate) fn render_on_device(&mut self, r: &PixelRelighter) -> Result<u64, GpuError> {
-        let bytes_read = self.frame(r, false)?;
+        let bytes_read = self.frame(r, false, None)?;
         self.ctx.wait("relighting")?;
         Ok(bytes_read)
     }
 
+    /// Relights the current material setting and draws the frame into a caller's texture
+    /// view (`Rgba32Float`, the image's size, `RENDER_ATTACHMENT` usage), without reading it
+    /// back; returns the bytes of bake data the frame read.
+    pub(crate) fn render_to_view(
+        &mut self,
+        r: &PixelRelighter,
+        view: &wgpu::TextureView,
+    ) -> Result<u64, GpuError> {
+        let (width, height) = (r.meta().width, r.meta().height);
+        check_view(view, width, height)?;
+        if self.present.is_none() {
+            self.present = Some(Present::new(&self.ctx, &self.image, width, height));
+        }
+        let ctx = self.ctx.clone();
+        ctx.checked("drawing into the caller's texture", || {
+            self.frame(r, false, Some(view))
+        })
+    }
+
     /// Uploads the frame's weights and submits its work (and, with `read_back`, the copy to
-    /// the read-back buffer); returns the bytes of bake data it reads.
-    fn frame(&mut self, r: &PixelRelighter, read_back: bool) -> Result<u64, GpuError> {
+    /// the read-back buffer; with `view`, drawing the frame into it); returns the bytes of
+    /// bake data it reads.
+    fn frame(
+        &mut self,
+        r: &PixelRelighter,
+        read_back: bool,
+        view: Option<&wgpu::TextureView>,
+    ) -> Result<u64, GpuError> {
         let variant = r.variant();
         self.ensure(r, variant)?;
         let meta = r.meta();
@@ -481,6 +510,9 @@ impl PixelGpu {
                 0,
                 self.image.size(),
             );
+        }
+        if let (Some(view), Some(present)) = (view, &self.present) {
+            present.encode(&mut encoder, view);
         }
         queue.submit([encoder.finish()]);
         Ok(bytes_read)

@@ -191,7 +191,7 @@ fn a_bake_over_the_binding_limit_is_refused_naming_it_and_the_cpu_still_renders(
 
 /// A textured diffuse floor (6 x 6 grid, editable), an editable GGX ball above it and a fixed
 /// glossy back wall: every group sees the others, so I1 and I2 are not zero.
-fn vertex_scene() -> Scene {
+fn vertex_scene(textured_floor: bool) -> Scene {
     let mut b = SceneBuilder::new();
     let floor = b.material(
         "floor",
@@ -280,7 +280,9 @@ fn vertex_scene() -> Scene {
         height: th,
         texels,
     });
-    scene.materials[floor as usize].base_color_texture = Some(0);
+    if textured_floor {
+        scene.materials[floor as usize].base_color_texture = Some(0);
+    }
     let nfloor = positions.len();
     for (k, uv) in uvs.into_iter().enumerate().take(nfloor) {
         scene.uvs[k] = uv;
@@ -334,8 +336,19 @@ fn environment() -> (usize, usize, Vec<f32>) {
 
 /// Bakes [`vertex_scene`] per vertex (f16; `compression` None: dense T1 and T2).
 fn vertex_bake(name: &str, compression: Option<CompressionSettings>) -> PathBuf {
+    vertex_bake_with(name, compression, Precision::F16, true)
+}
+
+/// [`vertex_bake`] at `precision`; without the floor's texture the tensors are gray (one
+/// channel), with it RGB.
+fn vertex_bake_with(
+    name: &str,
+    compression: Option<CompressionSettings>,
+    precision: Precision,
+    textured_floor: bool,
+) -> PathBuf {
     // Welded and ordered by unit, as every per-vertex bake is.
-    let prepared = prepare_scene(&vertex_scene());
+    let prepared = prepare_scene(&vertex_scene(textured_floor));
     let scene = prepared.scene;
     let bases = vec![small_basis(Family::Ggx, 4)];
     let shading = vec![default_shading_basis(Family::Ggx).expect("GGX shading basis")];
@@ -343,7 +356,7 @@ fn vertex_bake(name: &str, compression: Option<CompressionSettings>) -> PathBuf 
         samples: 16,
         secondary: 2,
         reflections: 3,
-        precision: Precision::F16,
+        precision,
         compression,
         ..Default::default()
     };
@@ -360,6 +373,9 @@ fn vertex_bake(name: &str, compression: Option<CompressionSettings>) -> PathBuf 
 
 fn vertex_settings(ctx: &GpuContext, path: &Path, label: &str) {
     let mut g = GpuRelighter::new(ctx, prt_runtime::open(path).expect("open")).expect("upload");
+    // The light and material stages' per-vertex work runs on the device (compute shaders):
+    // what these frames check besides the view stage.
+    assert_eq!(g.vertex_stages_on_device(), Some(true), "{label}");
     let camera = "eye=0.3,1.1,2.4 target=0,0.35,0 fov=45"
         .parse::<prt_formats::view::CameraSpec>()
         .expect("camera");
@@ -426,10 +442,27 @@ fn per_vertex_frames_match_the_cpu() {
         &vertex_bake("gpu-vertex-compressed.prtbake", Some(compressed)),
         "vertex compressed",
     );
+    // Gray tensors (no texture: one channel) stored as f32, dense and compressed.
+    vertex_settings(
+        &ctx,
+        &vertex_bake_with("gpu-vertex-gray.prtbake", None, Precision::F32, false),
+        "vertex dense, gray, f32",
+    );
+    vertex_settings(
+        &ctx,
+        &vertex_bake_with(
+            "gpu-vertex-gray-compressed.prtbake",
+            Some(compressed),
+            Precision::F32,
+            false,
+        ),
+        "vertex compressed, gray, f32",
+    );
 }
 
-/// `render_to_view` draws into the caller's texture what `render_into` reads back: the same
-/// bits in every pixel's RGB, alpha 1 where the mesh or the environment was drawn.
+/// `render_to_view` draws into the caller's texture what `render_into` reads back, for both
+/// kinds of bake: the same bits in every pixel's RGB, alpha 1; a texture of another size,
+/// format or usage is refused naming it.
 #[test]
 fn a_frame_rendered_into_a_callers_texture_is_the_read_back_frame() {
     let Some(ctx) = context(&GpuOptions::default()) else {
@@ -446,24 +479,59 @@ fn a_frame_rendered_into_a_callers_texture_is_the_read_back_frame() {
             .expect("camera");
         v.set_size(width, height).expect("size");
     }
-    let read_back = g.render().expect("read-back frame");
+    drawn_matches_read_back(&ctx, &mut g, "per vertex");
 
+    let path = pixel_bake("gpu-pixel-texture.prtbake", Precision::F16);
+    let mut g = GpuRelighter::new(&ctx, prt_runtime::open(&path).expect("open")).expect("upload");
+    set(g.relighter_mut(), "metal.alpha=0.6");
+    drawn_matches_read_back(&ctx, &mut g, "per pixel");
+}
+
+fn drawn_matches_read_back(ctx: &GpuContext, g: &mut GpuRelighter, what: &str) {
+    let (width, height) = g.relighter().size();
+    let read_back = g.render().expect("read-back frame");
     let device = ctx.device();
-    let extent = wgpu::Extent3d {
-        width,
-        height,
-        depth_or_array_layers: 1,
+    let texture = |w: u32, format, usage| {
+        device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("the caller's texture"),
+            size: wgpu::Extent3d {
+                width: w,
+                height,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage,
+            view_formats: &[],
+        })
     };
-    let texture = device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("the caller's texture"),
-        size: extent,
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format: wgpu::TextureFormat::Rgba32Float,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-        view_formats: &[],
-    });
+    let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC;
+    for (bad, names) in [
+        (
+            texture(width + 1, wgpu::TextureFormat::Rgba32Float, usage),
+            format!("{}x{height}", width + 1),
+        ),
+        (
+            texture(width, wgpu::TextureFormat::Rgba8Unorm, usage),
+            "Rgba8Unorm".to_string(),
+        ),
+        (
+            texture(
+                width,
+                wgpu::TextureFormat::Rgba32Float,
+                wgpu::TextureUsages::COPY_SRC,
+            ),
+            "RENDER_ATTACHMENT".to_string(),
+        ),
+    ] {
+        let err = g
+            .render_to_view(&bad.create_view(&Default::default()))
+            .expect_err("a texture the frame cannot be drawn into");
+        assert!(err.to_string().contains(&names), "{what}: {err}");
+    }
+    let texture = texture(width, wgpu::TextureFormat::Rgba32Float, usage);
     g.render_to_view(&texture.create_view(&Default::default()))
         .expect("render into the caller's texture");
 
@@ -487,7 +555,11 @@ fn a_frame_rendered_into_a_callers_texture_is_the_read_back_frame() {
                 rows_per_image: Some(height),
             },
         },
-        extent,
+        wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        },
     );
     ctx.queue().submit([encoder.finish()]);
     buffer
@@ -510,11 +582,11 @@ fn a_frame_rendered_into_a_callers_texture_is_the_read_back_frame() {
             assert_eq!(
                 [texel[0], texel[1], texel[2]],
                 expected,
-                "pixel ({x}, {y}): the caller's texture against the read-back frame"
+                "{what}: pixel ({x}, {y}): the caller's texture against the read-back frame"
             );
-            assert_eq!(texel[3], 1.0, "pixel ({x}, {y}): alpha");
+            assert_eq!(texel[3], 1.0, "{what}: pixel ({x}, {y}): alpha");
             lit += usize::from(expected.iter().any(|&v| v > 0.0));
         }
     }
-    assert!(lit > 0, "a black frame compares nothing");
+    assert!(lit > 0, "{what}: a black frame compares nothing");
 }

@@ -1,14 +1,18 @@
-//! The per-vertex view stage on the GPU (docs/gpu.md, "Per-vertex"): a render pipeline draws
-//! the mesh (the rasterizer interpolates barycentric weights perspective-correctly, with a
-//! reversed depth test) and its fragment shader shades the last reflection from the vertex
-//! records (`shaders/vertex.wgsl`); a second pipeline fills the pixels no triangle covers with
-//! the environment.
+//! The per-vertex bake on the GPU (docs/gpu.md, "Per-vertex"): the light and material
+//! stages' per-vertex work as compute dispatches (`stages.rs`, `shaders/stages.wgsl`) that
+//! write the vertex records, and the view stage as a render pipeline that draws the mesh (the
+//! rasterizer interpolates barycentric weights perspective-correctly, with a reversed depth
+//! test) and whose fragment shader shades the last reflection from the records
+//! (`shaders/vertex.wgsl`); a second pipeline fills the pixels no triangle covers with the
+//! environment.
 //!
-//! The light and material stages run on the CPU (`prt_runtime`'s, through its `gpu-surface`
-//! feature); their results (the vertex records, the environment map, its prefiltered cubes,
-//! the materials' contracted cores) are uploaded when the stages' run counters move, so a
-//! view-only frame uploads one uniform block and nothing else, and a frame allocates nothing
-//! on the device once its size is set.
+//! The CPU runs what does not grow with the vertex count (`prt_runtime`'s
+//! `prepare_device_stages`, through its `gpu-surface` feature: the light's cubes and
+//! coefficients, the materials' contracted cores and slot coefficients); those are uploaded
+//! when the stages' run counters move, so a view-only frame uploads one uniform block and
+//! nothing else, and a frame allocates nothing on the device once its size is set. A bake
+//! whose stage data exceed a device limit runs the whole stages on the CPU and uploads their
+//! records instead ([`VertexGpu::device_stages`] tells which).
 
 use prt_formats::lighting::cubemap::rotation_y;
 use prt_runtime::gpu_surface::VertexSurface;
@@ -20,9 +24,11 @@ use crate::pixel::upload;
 use crate::readback::Readback;
 
 mod blocks;
+mod stages;
 mod upload;
 
 use blocks::{cube_list, BasisBlock, FrameBlock, MaterialBlock};
+use stages::DeviceStages;
 
 /// The rasterizer's near plane, relative to the scene's depth (the CPU rasterizer's
 /// `NEAR_PLANE_RELATIVE`, here of the bounding box's farthest corner).
@@ -61,6 +67,8 @@ pub(crate) struct VertexGpu {
     cores: wgpu::Buffer,
     cubes: wgpu::Texture,
     bind_group: wgpu::BindGroup,
+    /// The stages' per-vertex work on the device; `None`: on the CPU (a part over a limit).
+    stages: Option<DeviceStages>,
     /// The stages' run counts whose results are on the device.
     light_runs: u64,
     material_runs: u64,
@@ -101,8 +109,9 @@ fn storage_buffer(ctx: &GpuContext, label: &str, bytes: &[u8]) -> Result<wgpu::B
 }
 
 impl VertexGpu {
-    /// Uploads the mesh, the vertex records, the shading tables, the textures and the light
-    /// of `r` (whose stages must have run: `VertexRelighter::prepare_stages`).
+    /// Uploads the mesh, the stages' data, the shading tables, the textures and the light of
+    /// `r` (whose stages must have run: `VertexRelighter::prepare_device_stages` or
+    /// `prepare_stages`).
     pub(crate) fn new(ctx: &GpuContext, r: &VertexRelighter) -> Result<VertexGpu, GpuError> {
         let Some(s) = r.surface() else {
             return Err(GpuError::Unsupported(
@@ -130,13 +139,16 @@ impl VertexGpu {
             }
         }
         // Records of all groups back to back; each vertex's offset into them.
-        let mut record_at = Vec::with_capacity(s.groups());
+        let stage_groups = s.stage_groups()?;
+        let record_layout = stages::record_layout(s, &stage_groups)?;
+        let records_len = record_layout
+            .last()
+            .zip(stage_groups.last())
+            .map_or(0, |(&(at, stride), g)| at + stride * g.vertices.len());
         let mut vis_at = Vec::with_capacity(s.groups());
-        let (mut records_len, mut vis_len) = (0usize, 0usize);
+        let mut vis_len = 0usize;
         for g in 0..s.groups() {
-            record_at.push(records_len);
             vis_at.push(vis_len);
-            records_len += s.records(g).1.len();
             vis_len += s.visibility(g).len();
         }
         let mut index: Vec<u32> =
@@ -148,13 +160,13 @@ impl VertexGpu {
         for &(g, local) in s.vertex_group() {
             let g = g as usize;
             if g < s.groups() {
-                let stride = s.records(g).0;
+                let (record_at, stride) = record_layout[g];
                 let vis = if s.visibility(g).is_empty() {
                     0
                 } else {
                     vis_at[g] + local as usize * VISIBILITY_BYTES
                 };
-                index.push((record_at[g] + local as usize * stride) as u32);
+                index.push((record_at + local as usize * stride) as u32);
                 index.push(vis as u32);
             } else {
                 index.extend([0, 0]);
@@ -380,6 +392,11 @@ impl VertexGpu {
             ],
             &cubes,
         );
+        let stages = match DeviceStages::new(ctx, s, &stage_groups, &record_layout, &records) {
+            Ok(st) => Some(st),
+            Err(GpuError::Limit { .. }) => None,
+            Err(e) => return Err(e),
+        };
         Ok(VertexGpu {
             ctx: ctx.clone(),
             layout,
@@ -397,6 +414,7 @@ impl VertexGpu {
             cores,
             cubes,
             bind_group,
+            stages,
             light_runs: 0,
             material_runs: 0,
             triangles: triangles.len() as u32,
@@ -588,7 +606,7 @@ impl VertexGpu {
                 "the light and material stages have not run".into(),
             ));
         };
-        self.upload_changes(&s)?;
+        let (light_moved, materials_moved) = self.upload_changes(&s)?;
         let (width, height) = s.size();
         self.ensure_target(width, height)?;
         let block = self.frame_block(&s);
@@ -599,6 +617,14 @@ impl VertexGpu {
             return Err(GpuError::Unsupported("no render target".into()));
         };
         let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        if let Some(stages) = &self.stages {
+            if light_moved {
+                stages.encode_light(&mut encoder, &self.ctx);
+            }
+            if light_moved || materials_moved {
+                stages.encode_material(&mut encoder, &self.ctx);
+            }
+        }
         {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("prt-gpu view stage"),
@@ -649,6 +675,12 @@ impl VertexGpu {
         }
         self.ctx.queue.submit([encoder.finish()]);
         Ok(())
+    }
+
+    /// Whether the stages' per-vertex work runs on the device (else the relighter must run
+    /// them on the CPU: `VertexRelighter::prepare_stages`).
+    pub(crate) fn device_stages(&self) -> bool {
+        self.stages.is_some()
     }
 
     /// Renders the current view and reads it back into `out` (`3 * width * height` floats).

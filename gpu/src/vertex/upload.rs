@@ -58,12 +58,19 @@ impl VertexGpu {
     }
 
     /// Uploads what changed since the last frame: the light's results (environment map,
-    /// prefiltered cubes) when the light stage ran, the records and materials when the
-    /// material stage ran.
-    pub(super) fn upload_changes(&mut self, s: &VertexSurface) -> Result<(), GpuError> {
+    /// prefiltered cubes, and for the device's stages the light's coefficients) when the
+    /// light stage ran, the materials and the records (or for the device's stages the slot
+    /// coefficients) when the material stage ran. Returns whether the light and the materials
+    /// moved.
+    pub(super) fn upload_changes(&mut self, s: &VertexSurface) -> Result<(bool, bool), GpuError> {
         let queue = self.ctx.queue.clone();
         let mut rebind = false;
-        if self.light_runs != s.light_runs() {
+        let light_moved = self.light_runs != s.light_runs();
+        let materials_moved = self.material_runs != s.material_runs();
+        if light_moved {
+            if let Some(stages) = &mut self.stages {
+                stages.write_light(&self.ctx, s)?;
+            }
             let env = s.environment();
             let bytes = 12 * (env.width * env.height) as u64;
             if bytes > self.environment.size() {
@@ -129,13 +136,17 @@ impl VertexGpu {
             }
             self.light_runs = s.light_runs();
         }
-        if self.material_runs != s.material_runs() {
-            self.record_data.clear();
-            for g in 0..s.groups() {
-                self.record_data.extend_from_slice(s.records(g).1);
-            }
-            if !self.record_data.is_empty() {
-                queue.write_buffer(&self.records, 0, bytemuck::cast_slice(&self.record_data));
+        if materials_moved {
+            if let Some(stages) = &mut self.stages {
+                stages.write_coefficients(&self.ctx, s);
+            } else {
+                self.record_data.clear();
+                for g in 0..s.groups() {
+                    self.record_data.extend_from_slice(s.records(g).1);
+                }
+                if !self.record_data.is_empty() {
+                    queue.write_buffer(&self.records, 0, bytemuck::cast_slice(&self.record_data));
+                }
             }
             self.material_data.clear();
             self.core_data.clear();
@@ -191,6 +202,6 @@ impl VertexGpu {
                 &self.cubes,
             );
         }
-        Ok(())
+        Ok((light_moved, materials_moved))
     }
 }

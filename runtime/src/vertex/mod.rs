@@ -120,6 +120,11 @@ pub struct VertexRelighter {
     /// (feature `gpu-surface`) uploads their results again only when these move.
     light_runs: u64,
     material_runs: u64,
+    /// Whether the light and material stages' per-vertex work runs here (the default), or
+    /// a GPU backend runs it on its device (feature `gpu-surface`,
+    /// `VertexRelighter::prepare_device_stages`): then only their per-environment and
+    /// per-material parts run here.
+    host_vertex_stages: bool,
 }
 
 impl VertexRelighter {
@@ -216,6 +221,7 @@ impl VertexRelighter {
             eye_checked: None,
             light_runs: 0,
             material_runs: 0,
+            host_vertex_stages: true,
         })
     }
 
@@ -385,7 +391,7 @@ impl VertexRelighter {
         let start = Instant::now();
         let (camera, width, height) = (self.camera, self.width, self.height);
         check_len("the output buffer", out, width, height)?;
-        let (rays, light_s, material_s) = self.prepare_frame()?;
+        let (rays, light_s, material_s) = self.prepare_frame(true)?;
         let view_start = Instant::now();
         self.rasterizer.render(
             &self.scene.positions,
@@ -429,9 +435,14 @@ impl VertexRelighter {
     /// eye check, the light and material stages (each when its inputs changed; their times
     /// when they ran), the split widths' check against the light's prefiltered cubes and the
     /// view stage's per-frame material table.
-    fn prepare_frame(&mut self) -> Result<(ViewRays, Option<f64>, Option<f64>), RuntimeError> {
+    /// `host_vertex_stages`: whether the stages' per-vertex work runs here (see the field).
+    fn prepare_frame(
+        &mut self,
+        host_vertex_stages: bool,
+    ) -> Result<(ViewRays, Option<f64>, Option<f64>), RuntimeError> {
         let rays = ViewRays::new(&self.camera, self.width, self.height)?;
         self.check_eye(self.camera.position)?;
+        self.set_host_vertex_stages(host_vertex_stages);
         let light_s = self.ensure_light()?;
         let material_s = self.ensure_shaded();
         let (Some(light), Some(shaded)) = (&self.light, &self.shaded) else {
@@ -462,6 +473,16 @@ impl VertexRelighter {
             &shaded.lobes,
         )?;
         Ok((rays, light_s, material_s))
+    }
+
+    /// Moves the stages' per-vertex work here or to a device; their results are made again
+    /// at the next frame when it moves.
+    fn set_host_vertex_stages(&mut self, on: bool) {
+        if self.host_vertex_stages != on {
+            self.host_vertex_stages = on;
+            self.light = None;
+            self.shaded = None;
+        }
     }
 
     /// The map that lights the scene: the environment as set, times its intensity.
@@ -502,6 +523,7 @@ impl VertexRelighter {
         &mut self,
         vertex: usize,
     ) -> Result<Option<incident::VertexIncident>, RuntimeError> {
+        self.set_host_vertex_stages(true);
         self.ensure_light()?;
         self.ensure_shaded();
         let Some(&(g, local)) = self.scene.vertex_group.get(vertex) else {
@@ -563,7 +585,11 @@ impl VertexRelighter {
         if open_rows || normal_maps {
             coefficients.open_sky = Some(light::open_sky(&coefficients.cube)?);
         }
-        let groups = incident::light_stage(&self.file, &self.meta, &self.scene, &coefficients)?;
+        let groups = if self.host_vertex_stages {
+            incident::light_stage(&self.file, &self.meta, &self.scene, &coefficients)?
+        } else {
+            Vec::new()
+        };
         self.light = Some(LightState {
             coefficients,
             groups,
@@ -583,14 +609,18 @@ impl VertexRelighter {
         let start = Instant::now();
         // Whether a parameter was clamped is told by `MaterialInfo` (its sampled range).
         let (coeff, _) = self.materials.coefficients();
-        let groups = incident::material_stage(
-            &self.meta,
-            &self.scene,
-            &light.groups,
-            &self.constants,
-            &self.ehat,
-            &coeff,
-        );
+        let groups = if self.host_vertex_stages {
+            incident::material_stage(
+                &self.meta,
+                &self.scene,
+                &light.groups,
+                &self.constants,
+                &self.ehat,
+                &coeff,
+            )
+        } else {
+            Vec::new()
+        };
         let params = self.materials.all();
         let mut lobes = Vec::with_capacity(params.len());
         for (m, p) in params.iter().enumerate() {

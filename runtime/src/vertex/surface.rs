@@ -4,10 +4,12 @@
 //! last reflection). Read-only views of the relighter's own state: nothing is copied, and the
 //! stages' run counters tell the backend when to upload a result again.
 
+use half::slice::HalfFloatSliceExt;
 use prt_formats::basis::ShadingBasis;
 use prt_formats::envmap::LatLongMap;
-use prt_formats::lighting::sh::SH_BANDS;
+use prt_formats::lighting::sh::{SH_BANDS, SH_COUNT};
 use prt_formats::lighting::CubeMap;
+use prt_formats::vertex::names;
 use prt_formats::view::CameraFrame;
 
 use super::incident::{E_AT, I1_AT, I2_AT, U_AT};
@@ -79,6 +81,126 @@ pub struct SurfaceMaterial<'a> {
     pub lobe: Option<SurfaceLobe<'a>>,
 }
 
+/// Stored values of a T0, T1 or T2 tensor as the file holds them.
+#[derive(Clone, Copy, Debug)]
+pub enum StoredValues<'a> {
+    /// 32-bit floats.
+    F32(&'a [f32]),
+    /// Half floats, as their bits.
+    F16(&'a [u16]),
+}
+
+impl StoredValues<'_> {
+    /// Whether the values are half floats.
+    pub fn is_f16(&self) -> bool {
+        matches!(self, StoredValues::F16(_))
+    }
+
+    /// The number of values.
+    pub fn len(&self) -> usize {
+        match self {
+            StoredValues::F32(v) => v.len(),
+            StoredValues::F16(v) => v.len(),
+        }
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// A compressed T1 or T2 (clustered Tucker, `prt_formats::clustered`), as the runtime holds it
+/// after opening (f32).
+#[derive(Clone, Copy, Debug)]
+pub struct ClusteredTensor<'a> {
+    /// Per cluster `(a, r, b)`: light, element and vertex ranks.
+    pub ranks: &'a [[usize; 3]],
+    /// Per cluster, its `light_c` (`bins x a`) in `factors`; its element factor follows at
+    /// `+ bins * a`, **transposed** to `r x width` (width = elements x channels).
+    pub factor_at: &'a [usize],
+    /// Per cluster, its core (`b x a x r`) in `core`.
+    pub core_at: &'a [usize],
+    /// Per cluster, its first row of the per-cluster results (`b_c` rows each).
+    pub rows_at: &'a [usize],
+    /// The per-cluster results' rows in all.
+    pub rows: usize,
+    /// Floats per vertex of `vertex` (the largest `b`).
+    pub vertex_rank: usize,
+    /// The factors (see `factor_at`).
+    pub factors: &'a [f32],
+    /// The cores.
+    pub core: &'a [f32],
+    /// `[V][vertex_rank]`: each vertex's coefficients over its cluster's rows.
+    pub vertex: &'a [f32],
+}
+
+/// T1 or T2 of one group.
+#[derive(Clone, Copy, Debug)]
+pub enum StageTensor<'a> {
+    /// `[V][bins][width]` as stored (width = elements x channels).
+    Dense(StoredValues<'a>),
+    /// Clustered Tucker.
+    Clustered(ClusteredTensor<'a>),
+}
+
+/// What the light and material stages read of one group (docs/vertex.md, sections 3 and 4),
+/// for a backend that runs them itself ([`VertexRelighter::prepare_device_stages`]).
+#[derive(Clone, Debug)]
+pub struct StageGroup<'a> {
+    /// Global indices of the group's vertices (its records are in this order).
+    pub vertices: &'a [u32],
+    /// T0 rows per vertex (`r_i + 1`, or 1): the last is the irradiance.
+    pub rows: usize,
+    /// Haar terms per T0 row.
+    pub terms: usize,
+    /// T0's Haar indices, `[V][rows][terms]`.
+    pub t0_index: &'a [u16],
+    /// T0's values, `[V][rows][terms]`.
+    pub t0_values: StoredValues<'a>,
+    /// Per vertex, whether its irradiance row is the occluded part, subtracted from the open
+    /// sky's irradiance at its normal ([`VertexSurface::open_sky`]); empty: none is.
+    pub t0_open: &'a [bool],
+    /// Stored T0, T1, T2 values times these are the true values.
+    pub scales: [f32; 3],
+    /// Global slots of `J` (the active slots), in the tensors' order.
+    pub active: &'a [u32],
+    /// T1's elements per channel (`J x 16`) and T2's (`J x I`).
+    pub elements: [usize; 2],
+    /// Channels of T1 and T2 (1: gray, 3: RGB interleaved).
+    pub channels: usize,
+    /// T1.
+    pub t1: StageTensor<'a>,
+    /// T2 (reflections = 3).
+    pub t2: Option<StageTensor<'a>>,
+    /// For a compressed group: each vertex's cluster.
+    pub clusters: Option<&'a [u32]>,
+    /// The group's shading basis ([`VertexSurface::shading_constants`]), if any.
+    pub shading: Option<usize>,
+}
+
+/// The light's coefficients the per-vertex stages contract with, per light bin and RGB.
+#[derive(Clone, Copy, Debug)]
+pub struct LightBins<'a> {
+    /// `C0`, per channel: the area-weighted Haar coefficients of the 6x64x64 cube.
+    pub haar: &'a [Vec<f32>; 3],
+    /// `C1`: the 6x8x8 cube's texels (T1's light bins).
+    pub one_bounce: &'a [[f32; 3]],
+    /// `C2`: the 6x2x2 cube's texels (T2's light bins).
+    pub two_bounce: &'a [[f32; 3]],
+}
+
+/// One shading basis' hemisphere constants (docs/vertex.md, section 3).
+#[derive(Clone, Copy, Debug)]
+pub struct StageConstants<'a> {
+    /// `r_i`.
+    pub rank: usize,
+    /// `Cwi[s][c]`, `[16][rank]`.
+    pub cwi: &'a [f32],
+    /// `Cconst[c]`, `[rank]`.
+    pub cconst: &'a [f32],
+}
+
 /// A read-only view of a prepared per-vertex relighter: see the module documentation.
 pub struct VertexSurface<'a> {
     r: &'a VertexRelighter,
@@ -90,7 +212,22 @@ impl VertexRelighter {
     /// stage's material table; refuses what [`VertexRelighter::render_into`] refuses, with
     /// the same errors. Then [`VertexRelighter::surface`] shows the results.
     pub fn prepare_stages(&mut self) -> Result<Stages, RuntimeError> {
-        let (_, light_s, material_s) = self.prepare_frame()?;
+        let (_, light_s, material_s) = self.prepare_frame(true)?;
+        Ok(Stages {
+            light_s,
+            material_s,
+        })
+    }
+
+    /// [`VertexRelighter::prepare_stages`] for a backend that runs the stages' per-vertex work
+    /// itself (from [`VertexSurface::stage_groups`], [`VertexSurface::light_bins`] and
+    /// [`VertexSurface::slot_coefficients`]): here only what does not grow with the vertex
+    /// count runs (the environment's cube, Haar coefficients, coarse cubes, prefiltered cubes
+    /// and open-sky table; the materials' contracted cores), and
+    /// [`VertexSurface::records`] stays empty. A CPU render afterwards runs the whole stages
+    /// again.
+    pub fn prepare_device_stages(&mut self) -> Result<Stages, RuntimeError> {
+        let (_, light_s, material_s) = self.prepare_frame(false)?;
         Ok(Stages {
             light_s,
             material_s,
@@ -263,6 +400,109 @@ impl<'a> VertexSurface<'a> {
     /// the map's from `R_y(-rotation) d`.
     pub fn environment_rotation(&self) -> f32 {
         self.r.rotation_deg
+    }
+
+    /// What the stages read of each group (for [`VertexRelighter::prepare_device_stages`]):
+    /// the tensors as the file stores them (T0, dense T1 and T2) or as the runtime holds them
+    /// after opening (compressed T1 and T2).
+    pub fn stage_groups(&self) -> Result<Vec<StageGroup<'a>>, RuntimeError> {
+        let r = self.r;
+        let file = &r.file;
+        let values = |name: String| -> Result<StoredValues<'a>, RuntimeError> {
+            let t = file.tensor(&name)?;
+            Ok(match t.dtype() {
+                prt_formats::Dtype::F16 => StoredValues::F16(t.as_f16()?.reinterpret_cast()),
+                _ => StoredValues::F32(t.as_f32()?),
+            })
+        };
+        let n_i = r.meta.t2_slots.len();
+        let mut out = Vec::with_capacity(r.meta.groups.len());
+        for (g, (gm, layout)) in r.meta.groups.iter().zip(&r.scene.groups).enumerate() {
+            let j = gm.active.len();
+            let clustered = |t: &'a super::clustered::CompressedTensor| {
+                StageTensor::Clustered(ClusteredTensor {
+                    ranks: &t.layout.ranks,
+                    factor_at: &t.layout.factor_at,
+                    core_at: &t.layout.core_at,
+                    rows_at: &t.rows_at,
+                    rows: t.rows,
+                    vertex_rank: t.layout.vertex_rank,
+                    factors: &t.factors,
+                    core: &t.core,
+                    vertex: &t.vertex,
+                })
+            };
+            let (t1, t2, clusters) = match &layout.compressed {
+                Some(c) => (
+                    clustered(&c.t1),
+                    c.t2.as_ref().map(clustered),
+                    Some(c.clusters.as_slice()),
+                ),
+                None => (
+                    StageTensor::Dense(values(names::t1(g))?),
+                    if r.meta.reflections >= 3 {
+                        Some(StageTensor::Dense(values(names::t2(g))?))
+                    } else {
+                        None
+                    },
+                    None,
+                ),
+            };
+            out.push(StageGroup {
+                vertices: &layout.vertices,
+                rows: layout.rows,
+                terms: r.meta.group_t0_terms(gm),
+                t0_index: file.tensor(&names::t0_index(g))?.as_u16()?,
+                t0_values: values(names::t0_value(g))?,
+                t0_open: &layout.t0_open,
+                scales: [gm.scale_t0, gm.scale_t1, gm.scale_t2],
+                active: &gm.active,
+                elements: [j * SH_COUNT, j * n_i],
+                channels: r.meta.channels as usize,
+                t1,
+                t2,
+                clusters,
+                shading: gm.shading.map(|b| b as usize),
+            });
+        }
+        Ok(out)
+    }
+
+    /// The global slots of T2's second reflection (`I`), in its order.
+    pub fn t2_slots(&self) -> &'a [u32] {
+        &self.r.meta.t2_slots
+    }
+
+    /// `Ehat[s]`: the irradiance of SH coefficient `s` over the hemisphere.
+    pub fn irradiance_sh(&self) -> [f32; SH_COUNT] {
+        self.r.ehat
+    }
+
+    /// Shading basis `b`'s hemisphere constants (`None` past the last).
+    pub fn shading_constants(&self, b: usize) -> Option<StageConstants<'a>> {
+        let c = self.r.constants.get(b)?;
+        Some(StageConstants {
+            rank: c.rank,
+            cwi: &c.cwi,
+            cconst: &c.cconst,
+        })
+    }
+
+    /// The light's coefficients for the current environment (current for
+    /// [`VertexSurface::light_runs`]).
+    pub fn light_bins(&self) -> Option<LightBins<'a>> {
+        let c = &self.r.light.as_ref()?.coefficients;
+        Some(LightBins {
+            haar: &c.haar,
+            one_bounce: c.one_bounce.texels(),
+            two_bounce: c.two_bounce.texels(),
+        })
+    }
+
+    /// The RGB coefficient of every global slot at the current parameters (current for
+    /// [`VertexSurface::material_runs`]).
+    pub fn slot_coefficients(&self) -> Vec<[f32; 3]> {
+        self.r.materials.coefficients().0
     }
 
     /// The number of textures (base colours and normal maps).
