@@ -56,21 +56,21 @@ impl Renderer {
         }
     }
 
-    /// One frame, read back to the host.
-    fn frame(&mut self) -> Result<()> {
-        match self {
+    /// One frame, read back to the host; the seconds the CPU spent on the light stage, when
+    /// it ran (with the device's stages: the part that does not grow with the vertex count).
+    fn frame(&mut self) -> Result<Option<f64>> {
+        Ok(match self {
             Renderer::Gpu(g, out) => {
                 let (w, h) = g.relighter().size();
                 out.resize(3 * w as usize * h as usize, 0.0);
-                g.render_into(out)?;
+                g.render_into(out)?.light_s
             }
             Renderer::Cpu(r, out) => {
                 let (w, h) = r.size();
                 out.resize(3 * w as usize * h as usize, 0.0);
-                r.render_into(out)?;
+                r.render_into(out)?.light_s
             }
-        }
-        Ok(())
+        })
     }
 }
 
@@ -88,8 +88,9 @@ fn material_edit(r: &Relighter) -> Option<(String, [OverrideValue; 2])> {
     Some((m.name, [a, b]))
 }
 
-/// Per-vertex frame times (seconds, medians): view only, view + BRDF, view + BRDF + light.
-fn vertex_times(r: &mut Renderer, frames: usize, side: u32) -> Result<[f64; 3]> {
+/// Per-vertex frame times (seconds, medians): view only, view + BRDF, view + BRDF + light,
+/// and of the last the CPU's light stage.
+fn vertex_times(r: &mut Renderer, frames: usize, side: u32) -> Result<[f64; 4]> {
     let (camera, rotation0) = match r.relighter() {
         Relighter::Vertex(v) => {
             v.set_size(side, side)?;
@@ -99,8 +100,9 @@ fn vertex_times(r: &mut Renderer, frames: usize, side: u32) -> Result<[f64; 3]> 
     };
     let edit = material_edit(r.relighter());
     r.frame()?;
-    let mut out = [0.0; 3];
-    for (mode, slot) in out.iter_mut().enumerate() {
+    let mut out = [0.0; 4];
+    let mut light = Vec::with_capacity(frames);
+    for (mode, slot) in out.iter_mut().take(3).enumerate() {
         let mut times = Vec::with_capacity(frames);
         for k in 0..frames {
             let rv = r.relighter();
@@ -116,11 +118,15 @@ fn vertex_times(r: &mut Renderer, frames: usize, side: u32) -> Result<[f64; 3]> 
                 }
             }
             let start = Instant::now();
-            r.frame()?;
+            let light_s = r.frame()?;
             times.push(start.elapsed().as_secs_f64());
+            if mode == 2 {
+                light.push(light_s.unwrap_or(0.0));
+            }
         }
         *slot = median(times);
     }
+    out[3] = median(light);
     Ok(out)
 }
 
@@ -192,18 +198,36 @@ pub fn run(args: &GpuArgs) -> Result<()> {
             s = args.size
         );
         println!(
-            "{:<42} {:>22} {:>22} {:>22}",
-            "renderer", "view", "view + BRDF", "view + BRDF + light"
+            "{:<64} {:>22} {:>22} {:>22} {:>16}",
+            "renderer", "view", "view + BRDF", "view + BRDF + light", "of which CPU"
         );
         let mut rows = Vec::new();
         for (label, ctx, frames) in &contexts {
             let g = GpuRelighter::new(ctx, prt_runtime::open(path)?)?;
+            let stages = if g.vertex_stages_on_device() == Some(true) {
+                "stages on the device"
+            } else {
+                "stages on the CPU (over a limit)"
+            };
             rows.push((
-                format!("{label}: {}", ctx.adapter_name()),
+                format!("{label}, {stages}: {}", ctx.adapter_name()),
                 Renderer::Gpu(Box::new(g), Vec::new()),
                 *frames,
             ));
         }
+        // The default adapter with the stages' per-vertex work on the CPU, for comparison.
+        let cpu_stages = GpuContext::new(&GpuOptions {
+            vertex_stages_on_cpu: true,
+            ..Default::default()
+        })?;
+        rows.push((
+            format!("gpu, stages on the CPU: {}", cpu_stages.adapter_name()),
+            Renderer::Gpu(
+                Box::new(GpuRelighter::new(&cpu_stages, prt_runtime::open(path)?)?),
+                Vec::new(),
+            ),
+            args.frames,
+        ));
         if !args.no_cpu {
             let r = prt_runtime::open(path)?;
             rows.push((
@@ -215,14 +239,18 @@ pub fn run(args: &GpuArgs) -> Result<()> {
         for (label, mut r, frames) in rows {
             let t = vertex_times(&mut r, frames.max(1), args.size)?;
             let cell = |s: f64| format!("{:.3} ms ({:.0} fps)", s * 1e3, 1.0 / s);
-            let label: String = label.chars().take(42).collect();
+            let label: String = label.chars().take(64).collect();
             println!(
-                "{label:<42} {:>22} {:>22} {:>22}",
+                "{label:<64} {:>22} {:>22} {:>22} {:>16}",
                 cell(t[0]),
                 cell(t[1]),
-                cell(t[2])
+                cell(t[2]),
+                format!("{:.3} ms", t[3] * 1e3)
             );
         }
+        println!(
+            "(\"of which CPU\": the light stage's time on the CPU in a view + BRDF + light frame)"
+        );
         println!("goals (the issue): view >= 2000 fps, view + BRDF >= 1000 fps, view + BRDF + light >= 300 fps");
     }
     for path in &args.pixel {

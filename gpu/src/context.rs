@@ -15,6 +15,10 @@ pub struct GpuOptions {
     /// own `max_storage_buffer_binding_size` (the tests use it to split tiny bakes across
     /// bindings the way a large bake is split on any device).
     pub max_binding_bytes: Option<u64>,
+    /// Per-vertex: run the light and material stages' per-vertex work on the CPU and upload
+    /// their records, as a bake over a device limit does (the benchmark compares the two; the
+    /// tests keep that path checked).
+    pub vertex_stages_on_cpu: bool,
 }
 
 /// A device and its queue, shared by the relighters made on it (wgpu's handles are
@@ -26,6 +30,7 @@ pub struct GpuContext {
     info: wgpu::AdapterInfo,
     limits: wgpu::Limits,
     max_binding_bytes: u64,
+    vertex_stages_on_cpu: bool,
 }
 
 impl GpuContext {
@@ -74,6 +79,7 @@ impl GpuContext {
             info,
             limits,
             max_binding_bytes,
+            vertex_stages_on_cpu: options.vertex_stages_on_cpu,
         })
     }
 
@@ -116,6 +122,11 @@ impl GpuContext {
     /// may hold: the device's limit, or [`GpuOptions::max_binding_bytes`] below it.
     pub(crate) fn max_binding_bytes(&self) -> u64 {
         self.max_binding_bytes
+    }
+
+    /// [`GpuOptions::vertex_stages_on_cpu`].
+    pub(crate) fn vertex_stages_on_cpu(&self) -> bool {
+        self.vertex_stages_on_cpu
     }
 
     /// Bytes one storage binding may hold on the device (for the frame's own buffers).

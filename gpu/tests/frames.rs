@@ -371,11 +371,15 @@ fn vertex_bake_with(
     path
 }
 
-fn vertex_settings(ctx: &GpuContext, path: &Path, label: &str) {
+fn vertex_settings(ctx: &GpuContext, path: &Path, label: &str, stages_on_device: bool) {
     let mut g = GpuRelighter::new(ctx, prt_runtime::open(path).expect("open")).expect("upload");
-    // The light and material stages' per-vertex work runs on the device (compute shaders):
-    // what these frames check besides the view stage.
-    assert_eq!(g.vertex_stages_on_device(), Some(true), "{label}");
+    // The light and material stages' per-vertex work runs on the device (compute shaders),
+    // unless the context asks for the CPU's (the path a bake over a device limit takes).
+    assert_eq!(
+        g.vertex_stages_on_device(),
+        Some(stages_on_device),
+        "{label}"
+    );
     let camera = "eye=0.3,1.1,2.4 target=0,0.35,0 fov=45"
         .parse::<prt_formats::view::CameraSpec>()
         .expect("camera");
@@ -409,6 +413,12 @@ fn vertex_settings(ctx: &GpuContext, path: &Path, label: &str) {
         &mut g,
         &format!("{label}: map turned 70 degrees, intensity 0.6"),
     );
+    // A turn alone: the map and its prefiltered cubes stay on the device, the light stage
+    // runs again.
+    if let Relighter::Vertex(v) = g.relighter_mut() {
+        v.set_environment_rotation(200.0).expect("rotation");
+    }
+    compare(&mut g, &format!("{label}: map turned 200 degrees"));
     if let Relighter::Vertex(v) = g.relighter_mut() {
         let moved = v.camera().orbited(-50.0);
         v.set_camera(moved).expect("moved camera");
@@ -429,6 +439,7 @@ fn per_vertex_frames_match_the_cpu() {
         &ctx,
         &vertex_bake("gpu-vertex-dense.prtbake", None),
         "vertex dense",
+        true,
     );
     let compressed = CompressionSettings {
         error_target: 0.1,
@@ -441,12 +452,14 @@ fn per_vertex_frames_match_the_cpu() {
         &ctx,
         &vertex_bake("gpu-vertex-compressed.prtbake", Some(compressed)),
         "vertex compressed",
+        true,
     );
     // Gray tensors (no texture: one channel) stored as f32, dense and compressed.
     vertex_settings(
         &ctx,
         &vertex_bake_with("gpu-vertex-gray.prtbake", None, Precision::F32, false),
         "vertex dense, gray, f32",
+        true,
     );
     vertex_settings(
         &ctx,
@@ -457,6 +470,20 @@ fn per_vertex_frames_match_the_cpu() {
             false,
         ),
         "vertex compressed, gray, f32",
+        true,
+    );
+    // The stages on the CPU, their records uploaded (what a bake over a device limit does).
+    let Some(cpu_stages) = context(&GpuOptions {
+        vertex_stages_on_cpu: true,
+        ..Default::default()
+    }) else {
+        return;
+    };
+    vertex_settings(
+        &cpu_stages,
+        &vertex_bake("gpu-vertex-compressed.prtbake", Some(compressed)),
+        "vertex compressed, stages on the CPU",
+        false,
     );
 }
 

@@ -56,9 +56,8 @@ pub mod hooks;
 #[cfg(feature = "gpu-surface")]
 pub mod gpu_surface {
     pub use crate::vertex::surface::{
-        ClusteredTensor, LightBins, SplitWidth, StageConstants, StageGroup, StageTensor, Stages,
-        StoredValues, SurfaceLobe, SurfaceMaterial, VertexSurface, RECORD_E, RECORD_I1, RECORD_I2,
-        RECORD_U,
+        ClusteredTensor, SplitWidth, StageConstants, StageGroup, StageTensor, Stages, StoredValues,
+        SurfaceLobe, SurfaceMaterial, VertexSurface, RECORD_E, RECORD_I1, RECORD_I2, RECORD_U,
     };
 }
 mod image;

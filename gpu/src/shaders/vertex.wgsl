@@ -182,39 +182,9 @@ fn env_texel(x: u32, y: u32) -> vec3<f32> {
 }
 
 // The environment's radiance from world direction d: the lat-long map at back d, bilinear
-// (prt_formats::latlong::lookup_bilinear).
+// (`latlong_bilinear`, shaders/latlong.wgsl).
 fn radiance(d: vec3<f32>) -> vec3<f32> {
-    let r = turn_back(d);
-    let theta = acos(clamp(r.y, -1.0, 1.0));
-    let phi = atan2(r.x, -r.z);
-    let uu = phi / TAU + 0.5;
-    let u = uu - floor(uu);
-    let v = clamp(theta / PI, 0.0, 1.0);
-    let w = frame.env_width;
-    let h = frame.env_height;
-    let fx = (u - floor(u)) * f32(w) - 0.5;
-    let x_floor = floor(fx);
-    let tx = clamp(fx - x_floor, 0.0, 1.0);
-    let x0 = u32(((i32(x_floor) % i32(w)) + i32(w)) % i32(w));
-    let x1 = select(x0 + 1u, 0u, x0 + 1u == w);
-    let fy = v * f32(h) - 0.5;
-    var y0 = 0u;
-    var y1 = 0u;
-    var ty = 0.0;
-    if fy <= 0.0 {
-        y0 = 0u;
-        y1 = 0u;
-    } else if fy >= f32(h - 1u) {
-        y0 = h - 1u;
-        y1 = h - 1u;
-    } else {
-        let y_floor = floor(fy);
-        y0 = min(u32(y_floor), h - 1u);
-        y1 = min(y0 + 1u, h - 1u);
-        ty = clamp(fy - y_floor, 0.0, 1.0);
-    }
-    return env_texel(x0, y0) * ((1.0 - tx) * (1.0 - ty)) + env_texel(x1, y0) * (tx * (1.0 - ty))
-        + env_texel(x0, y1) * ((1.0 - tx) * ty) + env_texel(x1, y1) * (tx * ty);
+    return latlong_bilinear(turn_back(d), frame.env_width, frame.env_height);
 }
 
 // prt_formats::lighting::cubemap::direction_to_face_st: (face, s, t).

@@ -69,8 +69,16 @@ pub(super) struct BasisBlock {
     pub(super) pad: u32,
 }
 
-/// The cubes the shader reads from its cube texture, in layer order: the prefiltered cubes,
-/// then the open sky's irradiance table when the light has one.
-pub(super) fn cube_list<'a>(s: &VertexSurface<'a>) -> Vec<&'a prt_formats::lighting::CubeMap> {
-    s.prefiltered().iter().chain(s.open_sky()).collect()
+/// The sides of the cubes the shader reads from its cube texture, in layer order (six layers
+/// each): the prefiltered cubes, then the open sky's irradiance table when the light needs
+/// one.
+pub(super) fn cube_sizes(s: &VertexSurface) -> Vec<usize> {
+    let open_sky = s
+        .needs_open_sky()
+        .then_some(prt_formats::lighting::irradiance::IRRADIANCE_CUBE);
+    s.prefiltered()
+        .iter()
+        .map(|c| c.size())
+        .chain(open_sky)
+        .collect()
 }

@@ -24,10 +24,11 @@ use crate::pixel::upload;
 use crate::readback::Readback;
 
 mod blocks;
+mod environment;
 mod stages;
 mod upload;
 
-use blocks::{cube_list, BasisBlock, FrameBlock, MaterialBlock};
+use blocks::{cube_sizes, BasisBlock, FrameBlock, MaterialBlock};
 use stages::DeviceStages;
 
 /// The rasterizer's near plane, relative to the scene's depth (the CPU rasterizer's
@@ -72,6 +73,8 @@ pub(crate) struct VertexGpu {
     /// The stages' run counts whose results are on the device.
     light_runs: u64,
     material_runs: u64,
+    /// The lighting map's change count whose texels and prefiltered cubes are on the device.
+    map_runs: Option<u64>,
     triangles: u32,
     /// The mesh's bounding box (for the near plane).
     bounds: [[f32; 3]; 2],
@@ -229,7 +232,7 @@ impl VertexGpu {
             tables.extend(texels.iter().flatten());
         }
         let cube_size_at = index.len() as u32;
-        index.extend(cube_list(s).iter().map(|c| c.size() as u32));
+        index.extend(cube_sizes(s).iter().map(|&c| c as u32));
         let tables_bytes = 4 * tables.len() as u64;
         if tables.len() > u32::MAX as usize {
             return Err(GpuError::Limit {
@@ -303,7 +306,13 @@ impl VertexGpu {
         let layout = Self::bind_group_layout(device);
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("prt-gpu vertex"),
-            source: wgpu::ShaderSource::Wgsl(include_str!("../shaders/vertex.wgsl").into()),
+            source: wgpu::ShaderSource::Wgsl(
+                concat!(
+                    include_str!("../shaders/latlong.wgsl"),
+                    include_str!("../shaders/vertex.wgsl")
+                )
+                .into(),
+            ),
         });
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("prt-gpu vertex"),
@@ -369,9 +378,10 @@ impl VertexGpu {
             vertex_info_at,
             texture_info_at,
             cube_size_at,
-            open_sky_cube: match s.open_sky() {
-                Some(_) => s.prefiltered().len() as i32,
-                None => -1,
+            open_sky_cube: if s.needs_open_sky() {
+                s.prefiltered().len() as i32
+            } else {
+                -1
             },
             ..Default::default()
         };
@@ -392,10 +402,14 @@ impl VertexGpu {
             ],
             &cubes,
         );
-        let stages = match DeviceStages::new(ctx, s, &stage_groups, &record_layout, &records) {
-            Ok(st) => Some(st),
-            Err(GpuError::Limit { .. }) => None,
-            Err(e) => return Err(e),
+        let stages = if ctx.vertex_stages_on_cpu() {
+            None
+        } else {
+            match DeviceStages::new(ctx, s, &stage_groups, &record_layout, &records) {
+                Ok(st) => Some(st),
+                Err(GpuError::Limit { .. }) => None,
+                Err(e) => return Err(e),
+            }
         };
         Ok(VertexGpu {
             ctx: ctx.clone(),
@@ -417,6 +431,7 @@ impl VertexGpu {
             stages,
             light_runs: 0,
             material_runs: 0,
+            map_runs: None,
             triangles: triangles.len() as u32,
             bounds,
             offsets,
@@ -620,6 +635,13 @@ impl VertexGpu {
         if let Some(stages) = &self.stages {
             if light_moved {
                 stages.encode_light(&mut encoder, &self.ctx);
+                if self.offsets.open_sky_cube >= 0 {
+                    stages.encode_open_sky_copy(
+                        &mut encoder,
+                        &self.cubes,
+                        6 * self.offsets.open_sky_cube as u32,
+                    );
+                }
             }
             if light_moved || materials_moved {
                 stages.encode_material(&mut encoder, &self.ctx);

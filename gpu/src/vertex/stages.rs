@@ -2,11 +2,10 @@
 //! "Per-vertex"): what the CPU runtime's `incident.rs` and `clustered.rs` do per vertex and per
 //! cluster, as compute dispatches that write the vertex records the view stage reads.
 //!
-//! The CPU keeps what does not grow with the vertex count (the environment's cube, its Haar
-//! coefficients `C0`, the coarse cubes `C1` and `C2`, the open sky's irradiance table, the
-//! slot coefficients): a light change uploads those (about 0.5 MB) and a material change the
-//! slot coefficients, and the dispatches below do the rest. Each group's stored tensors are
-//! uploaded once, as the file stores them (f16 two per word).
+//! A light change runs `environment.rs`'s kernels (the turned cube, `C0`, `C1`, `C2`, the
+//! open sky's table, into this module's light buffer) and then the vertex kernels here; a
+//! material change uploads the slot coefficients (a few KB) and runs the material kernels.
+//! Each group's stored tensors are uploaded once, as the file stores them (f16 two per word).
 
 use prt_formats::lighting::cubemap::{bilinear_taps, direction_to_face_st};
 use prt_formats::lighting::irradiance::IRRADIANCE_CUBE;
@@ -16,6 +15,7 @@ use prt_runtime::gpu_surface::{
     ClusteredTensor, StageGroup, StageTensor, StoredValues, VertexSurface, RECORD_U,
 };
 
+use super::environment::{EnvironmentStage, LightTargets};
 use super::{check_binding, storage_buffer};
 use crate::context::GpuContext;
 use crate::error::GpuError;
@@ -169,8 +169,8 @@ pub(super) struct DeviceStages {
     t2_slots: Vec<u32>,
     ci_at: usize,
     layout: LightLayout,
+    environment: EnvironmentStage,
     /// Host scratch of the uploads, kept between frames.
-    light_data: Vec<[f32; 4]>,
     coeff_data: Vec<[f32; 4]>,
 }
 
@@ -397,9 +397,19 @@ impl DeviceStages {
         let light = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("prt-gpu light coefficients"),
             size: 16 * layout.len as u64,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            // COPY_SRC: the open sky's table is copied into the view stage's cube texture.
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
+        let environment = EnvironmentStage::new(
+            ctx,
+            LightTargets {
+                c1_at: layout.c1_at,
+                c2_at: layout.c2_at,
+                open_sky_at: layout.open_sky_at,
+            },
+            s.needs_open_sky(),
+        )?;
         let coeff = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("prt-gpu slot coefficients"),
             size: 16 * (coeff_len + n_i).max(1) as u64,
@@ -477,58 +487,60 @@ impl DeviceStages {
             t2_slots,
             ci_at,
             layout,
-            light_data: Vec::new(),
+            environment,
             coeff_data: Vec::new(),
         })
     }
 
-    /// Uploads the light's coefficients (`C0`, `C1`, `C2`, the open sky's table).
-    pub(super) fn write_light(
+    /// Sets the lighting map (`map`, its texels, `size` its width and height) and rotation
+    /// the next [`DeviceStages::encode_light`] runs the light stage for; `rebind`: the map's
+    /// buffer was made anew.
+    pub(super) fn set_light(
         &mut self,
         ctx: &GpuContext,
-        s: &VertexSurface,
+        map: &wgpu::Buffer,
+        size: (usize, usize),
+        rotation_deg: f32,
+        rebind: bool,
     ) -> Result<(), GpuError> {
-        let Some(bins) = s.light_bins() else {
-            return Err(GpuError::Unsupported("the light stage has not run".into()));
-        };
-        let l = &self.layout;
-        let d = &mut self.light_data;
-        d.clear();
-        d.resize(l.len, [0.0; 4]);
-        let [r, g, b] = bins.haar;
-        if r.len() != l.c1_at || g.len() != l.c1_at || b.len() != l.c1_at {
-            return Err(GpuError::Unsupported(format!(
-                "the light has {} Haar coefficients, expected {}",
-                r.len(),
-                l.c1_at
-            )));
-        }
-        for (i, e) in d[..l.c1_at].iter_mut().enumerate() {
-            *e = [r[i], g[i], b[i], 0.0];
-        }
-        for (part, at, end) in [
-            (bins.one_bounce, l.c1_at, l.c2_at),
-            (bins.two_bounce, l.c2_at, l.open_sky_at),
-            (
-                s.open_sky().map_or(&[][..], |c| c.texels()),
-                l.open_sky_at,
-                l.len,
-            ),
-        ] {
-            if !part.is_empty() && part.len() != end - at {
-                return Err(GpuError::Unsupported(format!(
-                    "a light cube has {} texels, expected {}",
-                    part.len(),
-                    end - at
-                )));
-            }
-            for (e, t) in d[at..end].iter_mut().zip(part) {
-                *e = [t[0], t[1], t[2], 0.0];
-            }
-        }
-        ctx.queue
-            .write_buffer(&self.light, 0, bytemuck::cast_slice(&self.light_data));
-        Ok(())
+        self.environment
+            .set(ctx, map, size, rotation_deg, &self.light, rebind)
+    }
+
+    /// Records copying the open sky's table into layers `layer ..= layer + 5` of `cubes` (the
+    /// view stage's cube texture), after [`DeviceStages::encode_light`].
+    pub(super) fn encode_open_sky_copy(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        cubes: &wgpu::Texture,
+        layer: u32,
+    ) {
+        let n = IRRADIANCE_CUBE as u32;
+        encoder.copy_buffer_to_texture(
+            wgpu::TexelCopyBufferInfo {
+                buffer: &self.light,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 16 * self.layout.open_sky_at as u64,
+                    bytes_per_row: Some(16 * n),
+                    rows_per_image: Some(n),
+                },
+            },
+            wgpu::TexelCopyTextureInfo {
+                texture: cubes,
+                mip_level: 0,
+                origin: wgpu::Origin3d {
+                    x: 0,
+                    y: 0,
+                    z: layer,
+                },
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::Extent3d {
+                width: n,
+                height: n,
+                depth_or_array_layers: 6,
+            },
+        );
     }
 
     /// Uploads the slot coefficients of the current materials.
@@ -552,8 +564,10 @@ impl DeviceStages {
         }
     }
 
-    /// Records the light stage's dispatches (after [`DeviceStages::write_light`]).
+    /// Records the light stage's dispatches (after [`DeviceStages::set_light`]): the
+    /// environment's kernels, then the vertices'.
     pub(super) fn encode_light(&self, encoder: &mut wgpu::CommandEncoder, ctx: &GpuContext) {
+        self.environment.encode(encoder);
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("prt-gpu light stage"),
             timestamp_writes: None,

@@ -4,7 +4,7 @@
 
 use prt_runtime::gpu_surface::VertexSurface;
 
-use super::blocks::{cube_list, MaterialBlock};
+use super::blocks::{cube_sizes, MaterialBlock};
 use super::{check_binding, VertexGpu};
 use crate::context::GpuContext;
 use crate::error::GpuError;
@@ -21,8 +21,8 @@ impl VertexGpu {
         ctx: &GpuContext,
         s: &VertexSurface,
     ) -> Result<wgpu::Texture, GpuError> {
-        let cubes = cube_list(s);
-        let side = cubes.iter().map(|c| c.size()).max().unwrap_or(1).max(1) as u32;
+        let cubes = cube_sizes(s);
+        let side = cubes.iter().copied().max().unwrap_or(1).max(1) as u32;
         let layers = (6 * cubes.len()).max(6) as u32;
         let limits = ctx.limits();
         if side > limits.max_texture_dimension_2d {
@@ -67,11 +67,11 @@ impl VertexGpu {
         let mut rebind = false;
         let light_moved = self.light_runs != s.light_runs();
         let materials_moved = self.material_runs != s.material_runs();
-        if light_moved {
-            if let Some(stages) = &mut self.stages {
-                stages.write_light(&self.ctx, s)?;
-            }
-            let env = s.environment();
+        // The map's texels and its prefiltered cubes (of the unturned map) change with a new
+        // map or intensity, not with a turn.
+        let map_moved = self.map_runs != Some(s.map_runs());
+        let env = s.environment();
+        if light_moved && map_moved {
             let bytes = 12 * (env.width * env.height) as u64;
             if bytes > self.environment.size() {
                 check_binding(&self.ctx, "the environment map", bytes)?;
@@ -90,17 +90,34 @@ impl VertexGpu {
             );
             self.offsets.env_width = env.width as u32;
             self.offsets.env_height = env.height as u32;
+        }
+        if light_moved {
+            if let Some(stages) = &mut self.stages {
+                stages.set_light(
+                    &self.ctx,
+                    &self.environment,
+                    (env.width, env.height),
+                    s.environment_rotation(),
+                    rebind,
+                )?;
+            }
             let side = self.cubes.width();
-            let cubes = cube_list(s);
-            if cubes.len() as i32
-                != s.prefiltered().len() as i32 + i32::from(s.open_sky().is_some())
-                || (self.offsets.open_sky_cube >= 0) != s.open_sky().is_some()
+            // The cubes made here: the prefiltered ones, and the open sky's table when the
+            // CPU ran the light stage (else the device makes it: `stages.rs`).
+            let cubes: Vec<_> = s.prefiltered().iter().chain(s.open_sky()).collect();
+            let open_sky_here = s.open_sky().is_some();
+            if cube_sizes(s).len() as i32
+                != s.prefiltered().len() as i32 + i32::from(self.offsets.open_sky_cube >= 0)
+                || (open_sky_here && self.offsets.open_sky_cube < 0)
             {
                 return Err(GpuError::Unsupported(
                     "the light's cubes changed in number after opening".into(),
                 ));
             }
             for (c, cube) in cubes.iter().enumerate() {
+                if c < s.prefiltered().len() && !map_moved {
+                    continue;
+                }
                 let n = cube.size();
                 if n as u32 > side || 6 * (c as u32 + 1) > self.cubes.depth_or_array_layers() {
                     return Err(GpuError::Unsupported(
@@ -135,6 +152,7 @@ impl VertexGpu {
                 );
             }
             self.light_runs = s.light_runs();
+            self.map_runs = Some(s.map_runs());
         }
         if materials_moved {
             if let Some(stages) = &mut self.stages {

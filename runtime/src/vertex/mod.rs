@@ -67,9 +67,47 @@ use view::{eye_verdict, ViewRays};
 pub const DEFAULT_IMAGE_SIDE: u32 = 512;
 
 /// The light stage's results.
-struct LightState {
-    coefficients: LightCoefficients,
-    groups: Vec<GroupLight>,
+enum LightState {
+    /// The whole light stage ran here.
+    Host {
+        coefficients: Box<LightCoefficients>,
+        groups: Vec<GroupLight>,
+    },
+    /// A device runs the light stage (`prepare_device_stages`): here only what is made once
+    /// per map, the unturned map's prefiltered cubes.
+    Device {
+        widths_deg: Vec<f64>,
+        prefiltered: Vec<CubeMap>,
+    },
+}
+
+impl LightState {
+    /// The prefiltered cubes' widths (degrees).
+    fn widths_deg(&self) -> &[f64] {
+        match self {
+            LightState::Host { coefficients, .. } => &coefficients.widths_deg,
+            LightState::Device { widths_deg, .. } => widths_deg,
+        }
+    }
+
+    /// The unturned map's prefiltered cubes, one per width.
+    fn prefiltered(&self) -> &[CubeMap] {
+        match self {
+            LightState::Host { coefficients, .. } => &coefficients.prefiltered,
+            LightState::Device { prefiltered, .. } => prefiltered,
+        }
+    }
+
+    /// The coefficients and per-group results when the stage ran here.
+    fn host(&self) -> Option<(&LightCoefficients, &[GroupLight])> {
+        match self {
+            LightState::Host {
+                coefficients,
+                groups,
+            } => Some((coefficients, groups)),
+            LightState::Device { .. } => None,
+        }
+    }
 }
 
 /// The material stage's results.
@@ -120,6 +158,9 @@ pub struct VertexRelighter {
     /// (feature `gpu-surface`) uploads their results again only when these move.
     light_runs: u64,
     material_runs: u64,
+    /// How many times the lighting map's texels have changed (a new map or intensity; not a
+    /// turn): a GPU backend uploads the map and its prefiltered cubes again only then.
+    map_runs: u64,
     /// Whether the light and material stages' per-vertex work runs here (the default), or
     /// a GPU backend runs it on its device (feature `gpu-surface`,
     /// `VertexRelighter::prepare_device_stages`): then only their per-environment and
@@ -221,6 +262,7 @@ impl VertexRelighter {
             eye_checked: None,
             light_runs: 0,
             material_runs: 0,
+            map_runs: 0,
             host_vertex_stages: true,
         })
     }
@@ -304,6 +346,7 @@ impl VertexRelighter {
         self.environment = map;
         self.scaled_environment = scaled;
         self.prefiltered_unturned = None;
+        self.map_runs += 1;
         self.light = None;
         Ok(())
     }
@@ -372,6 +415,7 @@ impl VertexRelighter {
         self.scaled_environment = scaled(&self.environment, intensity)?;
         self.intensity = intensity;
         self.prefiltered_unturned = None;
+        self.map_runs += 1;
         self.light = None;
         Ok(())
     }
@@ -402,7 +446,9 @@ impl VertexRelighter {
             &mut self.visibility,
         )?;
         let raster_s = view_start.elapsed().as_secs_f64();
-        let (Some(light), Some(shaded)) = (&self.light, &self.shaded) else {
+        let (Some((light, _)), Some(shaded)) =
+            (self.light.as_ref().and_then(LightState::host), &self.shaded)
+        else {
             return Err(self.no_stage_result());
         };
         let inputs = ViewInputs {
@@ -412,7 +458,7 @@ impl VertexRelighter {
             cache: &self.view,
             lobes: &shaded.lobes,
             widths: &self.widths,
-            light: &light.coefficients,
+            light,
             environment: Environment {
                 map: self.lighting_map(),
                 back: rotation_y(-f64::from(self.rotation_deg)),
@@ -452,13 +498,14 @@ impl VertexRelighter {
         for (b, ws) in self.widths.iter().enumerate() {
             for w in ws {
                 if let Prefiltered::Cube(i) = w.lookup {
-                    if light.coefficients.widths_deg.get(i) != Some(&f64::from(w.degrees)) {
+                    if light.widths_deg().get(i) != Some(&f64::from(w.degrees)) {
                         return Err(RuntimeError::VertexSchema {
                             path: self.file.path().display().to_string(),
                             reason: format!(
                                 "shading basis {b}: split width {} degrees does not match the \
                                  light's prefiltered widths {:?}",
-                                w.degrees, light.coefficients.widths_deg
+                                w.degrees,
+                                light.widths_deg()
                             ),
                         });
                     }
@@ -570,33 +617,46 @@ impl VertexRelighter {
             return Ok(None);
         }
         let start = Instant::now();
+        let map = self
+            .scaled_environment
+            .as_ref()
+            .unwrap_or(&self.environment);
+        if !self.host_vertex_stages {
+            let prefiltered =
+                unturned_prefiltered(map, &self.prefilter_widths, &mut self.prefiltered_unturned)?;
+            self.light = Some(LightState::Device {
+                widths_deg: self.prefilter_widths.clone(),
+                prefiltered,
+            });
+            self.light_runs += 1;
+            self.shaded = None;
+            return Ok(Some(start.elapsed().as_secs_f64()));
+        }
         let mut coefficients = light_coefficients(
-            self.scaled_environment
-                .as_ref()
-                .unwrap_or(&self.environment),
+            map,
             self.rotation_deg,
             &self.prefilter_widths,
             &mut self.prefiltered_unturned,
         )?;
-        // The open sky's irradiance per normal: for vertices whose irradiance row is the
-        // occluded part, and for the view stage's bent normals.
-        let open_rows = self.scene.groups.iter().any(|l| l.t0_open.contains(&true));
-        let normal_maps = self.meta.material_normal_maps.iter().any(Option::is_some);
-        if open_rows || normal_maps {
+        if self.needs_open_sky() {
             coefficients.open_sky = Some(light::open_sky(&coefficients.cube)?);
         }
-        let groups = if self.host_vertex_stages {
-            incident::light_stage(&self.file, &self.meta, &self.scene, &coefficients)?
-        } else {
-            Vec::new()
-        };
-        self.light = Some(LightState {
-            coefficients,
+        let groups = incident::light_stage(&self.file, &self.meta, &self.scene, &coefficients)?;
+        self.light = Some(LightState::Host {
+            coefficients: Box::new(coefficients),
             groups,
         });
         self.light_runs += 1;
         self.shaded = None;
         Ok(Some(start.elapsed().as_secs_f64()))
+    }
+
+    /// Whether the light needs the open sky's irradiance per normal: for vertices whose
+    /// irradiance row is the occluded part, and for the view stage's bent normals.
+    fn needs_open_sky(&self) -> bool {
+        let open_rows = self.scene.groups.iter().any(|l| l.t0_open.contains(&true));
+        let normal_maps = self.meta.material_normal_maps.iter().any(Option::is_some);
+        open_rows || normal_maps
     }
 
     /// Runs the material stage unless its result is current (the light stage must have run);
@@ -609,17 +669,16 @@ impl VertexRelighter {
         let start = Instant::now();
         // Whether a parameter was clamped is told by `MaterialInfo` (its sampled range).
         let (coeff, _) = self.materials.coefficients();
-        let groups = if self.host_vertex_stages {
-            incident::material_stage(
+        let groups = match light.host() {
+            Some((_, light_groups)) if self.host_vertex_stages => incident::material_stage(
                 &self.meta,
                 &self.scene,
-                &light.groups,
+                light_groups,
                 &self.constants,
                 &self.ehat,
                 &coeff,
-            )
-        } else {
-            Vec::new()
+            ),
+            _ => Vec::new(),
         };
         let params = self.materials.all();
         let mut lobes = Vec::with_capacity(params.len());
@@ -707,19 +766,31 @@ fn light_coefficients(
     let mut base = LightCoefficients::from_latlong(map, f64::from(rotation_deg), &[])?;
     let prefiltered = match unturned {
         Some(cubes) => cubes.clone(),
-        None => {
-            let cubes = if rotation_deg == 0.0 {
-                light::prefiltered(&base.cube, widths)?
-            } else {
-                light::prefiltered(&light::environment_cube(map, 0.0)?, widths)?
-            };
+        None if rotation_deg == 0.0 => {
+            let cubes = light::prefiltered(&base.cube, widths)?;
             *unturned = Some(cubes.clone());
             cubes
         }
+        None => unturned_prefiltered(map, widths, unturned)?,
     };
     base.widths_deg = widths.to_vec();
     base.prefiltered = prefiltered;
     Ok(base)
+}
+
+/// The prefiltered cubes of `map` unturned for `widths` (degrees), from `cache` or made and
+/// kept there.
+fn unturned_prefiltered(
+    map: &LatLongMap,
+    widths: &[f64],
+    cache: &mut Option<Vec<CubeMap>>,
+) -> Result<Vec<CubeMap>, LightingError> {
+    if let Some(cubes) = cache {
+        return Ok(cubes.clone());
+    }
+    let cubes = light::prefiltered(&light::environment_cube(map, 0.0)?, widths)?;
+    *cache = Some(cubes.clone());
+    Ok(cubes)
 }
 
 #[cfg(test)]

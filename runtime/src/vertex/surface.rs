@@ -179,17 +179,6 @@ pub struct StageGroup<'a> {
     pub shading: Option<usize>,
 }
 
-/// The light's coefficients the per-vertex stages contract with, per light bin and RGB.
-#[derive(Clone, Copy, Debug)]
-pub struct LightBins<'a> {
-    /// `C0`, per channel: the area-weighted Haar coefficients of the 6x64x64 cube.
-    pub haar: &'a [Vec<f32>; 3],
-    /// `C1`: the 6x8x8 cube's texels (T1's light bins).
-    pub one_bounce: &'a [[f32; 3]],
-    /// `C2`: the 6x2x2 cube's texels (T2's light bins).
-    pub two_bounce: &'a [[f32; 3]],
-}
-
 /// One shading basis' hemisphere constants (docs/vertex.md, section 3).
 #[derive(Clone, Copy, Debug)]
 pub struct StageConstants<'a> {
@@ -219,13 +208,12 @@ impl VertexRelighter {
         })
     }
 
-    /// [`VertexRelighter::prepare_stages`] for a backend that runs the stages' per-vertex work
-    /// itself (from [`VertexSurface::stage_groups`], [`VertexSurface::light_bins`] and
-    /// [`VertexSurface::slot_coefficients`]): here only what does not grow with the vertex
-    /// count runs (the environment's cube, Haar coefficients, coarse cubes, prefiltered cubes
-    /// and open-sky table; the materials' contracted cores), and
-    /// [`VertexSurface::records`] stays empty. A CPU render afterwards runs the whole stages
-    /// again.
+    /// [`VertexRelighter::prepare_stages`] for a backend that runs the light and material
+    /// stages itself (from the lighting map and rotation, [`VertexSurface::stage_groups`] and
+    /// [`VertexSurface::slot_coefficients`]): here only the checks, the prefiltered cubes
+    /// (once per map: they are of the unturned map) and the materials' contracted cores;
+    /// [`VertexSurface::records`] stays empty and [`VertexSurface::open_sky`] `None`. A CPU
+    /// render afterwards runs the whole stages again.
     pub fn prepare_device_stages(&mut self) -> Result<Stages, RuntimeError> {
         let (_, light_s, material_s) = self.prepare_frame(false)?;
         Ok(Stages {
@@ -246,6 +234,13 @@ impl<'a> VertexSurface<'a> {
     /// prefiltered cubes are current for this count.
     pub fn light_runs(&self) -> u64 {
         self.r.light_runs
+    }
+
+    /// How many times the lighting map's texels have changed (a new map or intensity; a turn
+    /// does not): [`VertexSurface::environment`] and [`VertexSurface::prefiltered`] are
+    /// current for this count.
+    pub fn map_runs(&self) -> u64 {
+        self.r.map_runs
     }
 
     /// How many times the material stage has run: the vertex records and the materials are
@@ -377,18 +372,26 @@ impl<'a> VertexSurface<'a> {
     /// The environment's prefiltered cubes (per nonzero split width), of the map **unturned**:
     /// a renderer reads them at `R_y(-rotation) d` for a world direction `d`.
     pub fn prefiltered(&self) -> &'a [CubeMap] {
-        match &self.r.light {
-            Some(l) => &l.coefficients.prefiltered,
-            None => &[],
-        }
+        self.r.light.as_ref().map_or(&[], |l| l.prefiltered())
     }
 
     /// The open sky's irradiance per normal of the light **turned** (read at world normals),
     /// when the bake has a normal map or open-sky irradiance rows: a pixel of a normal-mapped
     /// material scales its irradiance by this at the bent normal over this at the
     /// interpolated one.
+    ///
+    /// `None` when a device runs the light stage (`prepare_device_stages`): it makes the table
+    /// itself, when [`VertexSurface::needs_open_sky`].
     pub fn open_sky(&self) -> Option<&'a CubeMap> {
-        self.r.light.as_ref()?.coefficients.open_sky.as_ref()
+        self.r.light.as_ref()?.host()?.0.open_sky.as_ref()
+    }
+
+    /// Whether the light needs the open sky's irradiance per normal (6 x 32 x 32,
+    /// `prt_formats::lighting::irradiance::irradiance_table` of the turned light cube): for
+    /// vertices whose irradiance row is the occluded part ([`StageGroup::t0_open`]) and for
+    /// normal-mapped materials.
+    pub fn needs_open_sky(&self) -> bool {
+        self.r.needs_open_sky()
     }
 
     /// The map that lights the scene (intensity applied), unturned.
@@ -485,17 +488,6 @@ impl<'a> VertexSurface<'a> {
             rank: c.rank,
             cwi: &c.cwi,
             cconst: &c.cconst,
-        })
-    }
-
-    /// The light's coefficients for the current environment (current for
-    /// [`VertexSurface::light_runs`]).
-    pub fn light_bins(&self) -> Option<LightBins<'a>> {
-        let c = &self.r.light.as_ref()?.coefficients;
-        Some(LightBins {
-            haar: &c.haar,
-            one_bounce: c.one_bounce.texels(),
-            two_bounce: c.two_bounce.texels(),
         })
     }
 
