@@ -37,6 +37,7 @@
 
 #![warn(missing_docs)]
 
+mod buffers;
 mod context;
 mod error;
 mod pixel;

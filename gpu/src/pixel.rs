@@ -14,6 +14,7 @@ use std::ops::Range;
 use prt_formats::pixel::{group_weights, names, PixelBakeMeta, Precision};
 use prt_runtime::{PixelRelighter, Variant};
 
+use crate::buffers::upload;
 use crate::context::GpuContext;
 use crate::error::GpuError;
 use crate::present::{check_view, Present};
@@ -599,32 +600,4 @@ fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
         binding,
         resource: buffer.as_entire_binding(),
     }
-}
-
-/// A device buffer holding `bytes` (padded with zeros to whole words).
-pub(crate) fn upload(
-    ctx: &GpuContext,
-    label: &str,
-    bytes: &[u8],
-    usage: wgpu::BufferUsages,
-) -> Result<wgpu::Buffer, GpuError> {
-    let size = (bytes.len() as u64).div_ceil(4).max(1) * 4;
-    let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some(label),
-        size,
-        usage,
-        mapped_at_creation: true,
-    });
-    {
-        let mut view = buffer
-            .slice(..)
-            .get_mapped_range_mut()
-            .map_err(|e| GpuError::Backend {
-                during: "uploading",
-                reason: e.to_string(),
-            })?;
-        view.slice(..bytes.len()).copy_from_slice(bytes);
-    }
-    buffer.unmap();
-    Ok(buffer)
 }

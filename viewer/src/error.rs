@@ -38,6 +38,9 @@ pub enum ViewerError {
     /// A frame could not be encoded for the page or a download.
     #[error("encoding the image: {0}")]
     Encode(String),
+    /// The GPU backend could not start or render (`view --gpu`).
+    #[error("GPU: {0}")]
+    Gpu(String),
     /// The reference tracer cannot run.
     #[error("reference ({config}): {reason}")]
     Reference {

@@ -32,9 +32,81 @@ pub struct LinearFrame {
     pub stats: RenderStats,
 }
 
+/// Where frames are relit: the CPU runtime, or (feature `gpu`) the GPU backend over it.
+enum Engine {
+    Cpu(Box<Relighter>),
+    #[cfg(feature = "gpu")]
+    Gpu(Box<prt_gpu::GpuRelighter>),
+}
+
+impl Engine {
+    fn relighter(&self) -> &Relighter {
+        match self {
+            Engine::Cpu(r) => r,
+            #[cfg(feature = "gpu")]
+            Engine::Gpu(g) => g.relighter(),
+        }
+    }
+
+    fn relighter_mut(&mut self) -> &mut Relighter {
+        match self {
+            Engine::Cpu(r) => r,
+            #[cfg(feature = "gpu")]
+            Engine::Gpu(g) => g.relighter_mut(),
+        }
+    }
+
+    fn render_into(&mut self, out: &mut [f32]) -> Result<RenderStats, ViewerError> {
+        match self {
+            Engine::Cpu(r) => Ok(r.render_into(out)?),
+            #[cfg(feature = "gpu")]
+            Engine::Gpu(g) => {
+                let s = g.render_into(out).map_err(gpu_error)?;
+                Ok(RenderStats {
+                    seconds: s.seconds,
+                    light_s: s.light_s,
+                    material_s: s.material_s,
+                    bytes_read: s.bytes_read,
+                    ..Default::default()
+                })
+            }
+        }
+    }
+}
+
+/// A GPU error as the viewer's: the runtime's own refusals keep their type (the page shows
+/// them as the CPU path does).
+#[cfg(feature = "gpu")]
+fn gpu_error(e: prt_gpu::GpuError) -> ViewerError {
+    match e {
+        prt_gpu::GpuError::Runtime(r) => ViewerError::Runtime(r),
+        e => ViewerError::Gpu(e.to_string()),
+    }
+}
+
+/// The relighter of `bake` on the CPU, or with `gpu` on the default GPU adapter.
+fn engine(bake: &Path, gpu: bool) -> Result<Engine, ViewerError> {
+    let relighter = prt_runtime::open(bake)?;
+    if !gpu {
+        return Ok(Engine::Cpu(Box::new(relighter)));
+    }
+    #[cfg(feature = "gpu")]
+    {
+        let ctx = prt_gpu::GpuContext::new(&prt_gpu::GpuOptions::default()).map_err(gpu_error)?;
+        let g = prt_gpu::GpuRelighter::new(&ctx, relighter).map_err(gpu_error)?;
+        Ok(Engine::Gpu(Box::new(g)))
+    }
+    #[cfg(not(feature = "gpu"))]
+    Err(ViewerError::Gpu(
+        "this viewer was built without the GPU backend: cargo build --release -p prt-viewer \
+         --features gpu --bin view (docs/gpu.md)"
+            .into(),
+    ))
+}
+
 /// The server's relighter, the environments it may load, and what it has set now.
 pub struct Renderer {
-    relighter: Relighter,
+    engine: Engine,
     /// Per-vertex: the folder the picker's maps come from.
     env_folder: Option<PathBuf>,
     /// Maps read so far, by picker name (the baked one from the start).
@@ -64,14 +136,17 @@ pub fn list_environments(folder: &Path) -> Result<Vec<String>, ViewerError> {
 }
 
 impl Renderer {
-    /// Opens the bake; a per-vertex bake gets the maps of `env_folder` in its picker.
-    /// Returns the renderer, what the bake offers and the settings it opens with.
+    /// Opens the bake (relit on the GPU with `gpu`); a per-vertex bake gets the maps of
+    /// `env_folder` in its picker. Returns the renderer, what the bake offers and the
+    /// settings it opens with.
     pub fn open(
         bake: &Path,
         env_folder: Option<&Path>,
         reference_unavailable: Option<String>,
+        gpu: bool,
     ) -> Result<(Renderer, BakeInfo, Settings), ViewerError> {
-        let relighter = prt_runtime::open(bake)?;
+        let engine = engine(bake, gpu)?;
+        let relighter = engine.relighter();
         let mut env_cache = HashMap::new();
         let (environments, view) = match &relighter {
             Relighter::Pixel(_) => (None, None),
@@ -95,7 +170,7 @@ impl Renderer {
         let renderer = Renderer {
             materials: settings.materials.clone(),
             environment: BAKED_ENVIRONMENT.to_string(),
-            relighter,
+            engine,
             env_folder: env_folder.map(Path::to_path_buf),
             env_cache,
         };
@@ -112,11 +187,13 @@ impl Renderer {
     ) -> Result<RenderStats, ViewerError> {
         for (want, have) in settings.materials.iter().zip(self.materials.iter_mut()) {
             if want.values != have.values {
-                self.relighter.set_params(&want.name, &want.values)?;
+                self.engine
+                    .relighter_mut()
+                    .set_params(&want.name, &want.values)?;
                 have.values.clone_from(&want.values);
             }
         }
-        if let (Relighter::Vertex(v), Some(view)) = (&mut self.relighter, &settings.view) {
+        if let (Relighter::Vertex(v), Some(view)) = (self.engine.relighter_mut(), &settings.view) {
             if view.environment != self.environment {
                 let map = match self.env_cache.get(&view.environment) {
                     Some(map) => map.clone(),
@@ -147,10 +224,10 @@ impl Renderer {
                 v.set_camera(frame)?;
             }
         }
-        let (w, h) = self.relighter.size();
+        let (w, h) = self.engine.relighter().size();
         pixels.resize(3 * w as usize * h as usize, 0.0);
         let start = Instant::now();
-        let mut stats = self.relighter.render_into(pixels)?;
+        let mut stats = self.engine.render_into(pixels)?;
         // The camera's eye check and the setters' work belong to the frame too.
         stats.seconds = stats.seconds.max(start.elapsed().as_secs_f64());
         Ok(stats)
@@ -158,12 +235,12 @@ impl Renderer {
 
     /// The image size now.
     pub fn size(&self) -> (u32, u32) {
-        self.relighter.size()
+        self.engine.relighter().size()
     }
 
     /// What the bake fixes about a reference render of it.
     pub fn tracing(&self) -> BakeTracing {
-        match &self.relighter {
+        match self.engine.relighter() {
             Relighter::Pixel(p) => BakeTracing {
                 reflections: p.meta().reflections as usize,
                 emission_oversampling: p.meta().emission_oversampling,

@@ -51,6 +51,8 @@ pub struct ServerOptions {
     pub config: Option<PathBuf>,
     /// Where to listen (127.0.0.1 unless the user asked otherwise).
     pub address: SocketAddr,
+    /// Relight on the GPU (the crate's feature `gpu`; refused without it).
+    pub gpu: bool,
 }
 
 /// A running viewer.
@@ -75,6 +77,7 @@ impl Server {
             &options.bake,
             options.env_folder.as_deref(),
             reference_unavailable,
+            options.gpu,
         )?;
         let tracing = renderer.tracing();
         let open_seconds = start.elapsed().as_secs_f64();

@@ -68,6 +68,7 @@ fn serve(bake: &Path, config: Option<&str>) -> SocketAddr {
         env_folder: Some(root().join("scenes/envmaps")),
         config: config.map(|c| root().join(c)),
         address: "127.0.0.1:0".parse().expect("address"),
+        gpu: false,
     })
     .expect("server starts");
     let address = server.address();

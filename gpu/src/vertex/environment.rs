@@ -228,8 +228,12 @@ impl EnvironmentStage {
                     }
                 }
             }
-            super::check_binding(ctx, "the environment's tables", 4 * tables.len() as u64)?;
-            self.tables = Some(crate::pixel::upload(
+            crate::buffers::check_binding(
+                ctx,
+                "the environment's tables",
+                4 * tables.len() as u64,
+            )?;
+            self.tables = Some(crate::buffers::upload(
                 ctx,
                 "prt-gpu environment tables",
                 bytemuck::cast_slice(&tables),
@@ -358,7 +362,7 @@ mod tests {
                     mapped_at_creation: false,
                 });
                 let flat: Vec<f32> = texels.iter().flatten().copied().collect();
-                let map = crate::pixel::upload(
+                let map = crate::buffers::upload(
                     &ctx,
                     "map",
                     bytemuck::cast_slice(&flat),

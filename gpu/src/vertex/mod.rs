@@ -18,9 +18,9 @@ use prt_formats::lighting::cubemap::rotation_y;
 use prt_runtime::gpu_surface::VertexSurface;
 use prt_runtime::VertexRelighter;
 
+use crate::buffers::{check_binding, storage_buffer};
 use crate::context::GpuContext;
 use crate::error::GpuError;
-use crate::pixel::upload;
 use crate::readback::Readback;
 
 mod blocks;
@@ -85,30 +85,6 @@ pub(crate) struct VertexGpu {
     material_data: Vec<MaterialBlock>,
     core_data: Vec<f32>,
     cube_data: Vec<[f32; 4]>,
-}
-
-/// Refuses a buffer larger than one storage binding.
-fn check_binding(ctx: &GpuContext, what: &str, bytes: u64) -> Result<(), GpuError> {
-    let max = ctx.max_binding_bytes();
-    if bytes > max {
-        return Err(GpuError::Limit {
-            limit: "max_storage_buffer_binding_size",
-            what: what.to_string(),
-            needed: bytes,
-            max,
-        });
-    }
-    Ok(())
-}
-
-fn storage_buffer(ctx: &GpuContext, label: &str, bytes: &[u8]) -> Result<wgpu::Buffer, GpuError> {
-    check_binding(ctx, label, bytes.len() as u64)?;
-    upload(
-        ctx,
-        label,
-        bytes,
-        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-    )
 }
 
 impl VertexGpu {

@@ -16,7 +16,7 @@ use prt_runtime::gpu_surface::{
 };
 
 use super::environment::{EnvironmentStage, LightTargets};
-use super::{check_binding, storage_buffer};
+use crate::buffers::{check_binding, storage_buffer, upload};
 use crate::context::GpuContext;
 use crate::error::GpuError;
 
@@ -442,7 +442,7 @@ impl DeviceStages {
         {
             let data = storage_buffer(ctx, "a group's stage data", bytemuck::cast_slice(&data.0))?;
             let bind = [0u32, 1].map(|which| {
-                let uniform = crate::pixel::upload(
+                let uniform = upload(
                     ctx,
                     "prt-gpu stage group",
                     bytemuck::bytes_of(&GroupBlock { which, ..*block }),

@@ -5,7 +5,8 @@
 use prt_runtime::gpu_surface::VertexSurface;
 
 use super::blocks::{cube_sizes, MaterialBlock};
-use super::{check_binding, VertexGpu};
+use super::VertexGpu;
+use crate::buffers::check_binding;
 use crate::context::GpuContext;
 use crate::error::GpuError;
 

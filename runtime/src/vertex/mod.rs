@@ -75,6 +75,8 @@ enum LightState {
     },
     /// A device runs the light stage (`prepare_device_stages`): here only what is made once
     /// per map, the unturned map's prefiltered cubes.
+    // Made and read only through the feature `gpu-surface`.
+    #[cfg_attr(not(feature = "gpu-surface"), allow(dead_code))]
     Device {
         widths_deg: Vec<f64>,
         prefiltered: Vec<CubeMap>,
@@ -91,6 +93,7 @@ impl LightState {
     }
 
     /// The unturned map's prefiltered cubes, one per width.
+    #[cfg_attr(not(feature = "gpu-surface"), allow(dead_code))]
     fn prefiltered(&self) -> &[CubeMap] {
         match self {
             LightState::Host { coefficients, .. } => &coefficients.prefiltered,

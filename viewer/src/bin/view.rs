@@ -31,6 +31,10 @@ struct Args {
     /// Port to listen on (0: any free port).
     #[arg(long, default_value_t = 8427)]
     port: u16,
+    /// Relight on the GPU (a build with `--features gpu`; docs/gpu.md): the default adapter,
+    /// lavapipe where there is no GPU.
+    #[arg(long)]
+    gpu: bool,
     /// Listen on this address instead of 127.0.0.1. Anyone who can reach it can use the
     /// viewer (and read the bake through it): there is no authentication.
     #[arg(long, value_name = "IP")]
@@ -61,6 +65,7 @@ fn run(args: Args) -> Result<()> {
         env_folder: args.envs,
         config: args.config,
         address: SocketAddr::new(ip, args.port),
+        gpu: args.gpu,
     })?;
     // The page's address on stdout (a script reads it); the rest on stderr.
     println!("http://{}/", server.address());
