@@ -8,7 +8,8 @@
 #   bench/gpu.sh --prepare   build here: `bake` and `bench` (with the GPU feature), stripped,
 #                            and the Vulkan loader, into target/gpu-carry/ (about 25 MB)
 #   bench/gpu.sh             bake the two scenes (under target/gpu-bench/, reused when
-#                            present) and run `bench gpu` on them
+#                            present), run `bench gpu` on them, then check their GPU frames
+#                            against the CPU runtime's (`bench gpu --agreement`)
 #
 # On a machine without network or cargo (a lent GPU machine), carry target/gpu-carry/ there
 # and run `PRT_BIN=target/gpu-carry bench/gpu.sh`: it needs nothing else but the working tree
@@ -70,3 +71,7 @@ done
 
 "$BIN/bench" gpu --vertex "$OUT/gallery.prtbake" --pixel "$OUT/cornell-f32.prtbake" \
     --pixel "$OUT/cornell-f16.prtbake" --frames "$FRAMES" "${@}"
+# The same bakes' GPU frames against the CPU runtime's (docs/gpu.md, "Agreement on the example
+# scenes").
+"$BIN/bench" gpu --agreement "$OUT/gallery.prtbake" "$OUT/cornell-f32.prtbake" \
+    "$OUT/cornell-f16.prtbake"
