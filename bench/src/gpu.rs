@@ -212,10 +212,12 @@ pub fn run(args: &GpuArgs) -> Result<()> {
         let mut rows = Vec::new();
         for (label, ctx, frames) in &contexts {
             let g = GpuRelighter::new(ctx, prt_runtime::open(path)?)?;
-            let stages = if g.vertex_stages_on_device() == Some(true) {
-                "stages on the device"
-            } else {
-                "stages on the CPU (over a limit)"
+            let stages = match g.vertex_stages_on_cpu() {
+                None => "stages on the device",
+                Some(why) => {
+                    println!("{label}: the stages run on the CPU: {why}");
+                    "stages on the CPU (over a limit)"
+                }
             };
             rows.push((
                 format!("{label}, {stages}: {}", ctx.adapter_name()),

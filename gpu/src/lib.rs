@@ -132,6 +132,17 @@ impl GpuRelighter {
         }
     }
 
+    /// Per-vertex, when the light and material stages run on the CPU: why (the device limit a
+    /// part of the bake exceeds, named as [`GpuError::Limit`] names it, or the context's
+    /// [`GpuOptions::vertex_stages_on_cpu`]). `None` when they run on the device, and for a
+    /// per-pixel bake.
+    pub fn vertex_stages_on_cpu(&self) -> Option<&str> {
+        match &self.gpu {
+            Backend::Vertex(g) => g.stages_on_cpu(),
+            Backend::Pixel(_) => None,
+        }
+    }
+
     /// Hands the CPU relighter back (to render on the CPU after all).
     pub fn into_relighter(self) -> Relighter {
         self.cpu

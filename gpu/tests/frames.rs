@@ -189,6 +189,39 @@ fn a_bake_over_the_binding_limit_is_refused_naming_it_and_the_cpu_still_renders(
     );
 }
 
+/// Between a binding that holds the view stage's buffers but not a group's stage data (T0 is
+/// the largest) and one that holds both, the light and material stages run on the CPU (the
+/// reason names the limit) and the frames still match the CPU's; above, on the device.
+#[test]
+fn stage_data_over_the_binding_limit_run_the_stages_on_the_cpu() {
+    let path = vertex_bake("gpu-limit-stages.prtbake", None);
+    let mut seen = (false, false);
+    for shift in (10..=26).rev() {
+        let Some(ctx) = context(&GpuOptions {
+            max_binding_bytes: Some(1 << shift),
+            ..Default::default()
+        }) else {
+            return;
+        };
+        match GpuRelighter::new(&ctx, prt_runtime::open(&path).expect("open")) {
+            Ok(mut g) => match g.vertex_stages_on_cpu() {
+                None => seen.0 = true,
+                Some(why) => {
+                    assert!(why.contains("max_storage_buffer_binding_size"), "{why}");
+                    seen.1 = true;
+                    compare(
+                        &mut g,
+                        &format!("stages on the CPU at {} bytes a binding", 1u64 << shift),
+                    );
+                    break;
+                }
+            },
+            Err(e) => panic!("{} bytes: {e}", 1u64 << shift),
+        }
+    }
+    assert!(seen.0 && seen.1, "on the device and on the CPU: {seen:?}");
+}
+
 /// A textured diffuse floor (6 x 6 grid, editable), an editable GGX ball above it and a fixed
 /// glossy back wall: every group sees the others, so I1 and I2 are not zero.
 fn vertex_scene(textured_floor: bool) -> Scene {
@@ -380,6 +413,10 @@ fn vertex_settings(ctx: &GpuContext, path: &Path, label: &str, stages_on_device:
         Some(stages_on_device),
         "{label}"
     );
+    if !stages_on_device {
+        let why = g.vertex_stages_on_cpu().expect("a reason");
+        assert!(why.contains("vertex_stages_on_cpu"), "{label}: {why}");
+    }
     let camera = "eye=0.3,1.1,2.4 target=0,0.35,0 fov=45"
         .parse::<prt_formats::view::CameraSpec>()
         .expect("camera");

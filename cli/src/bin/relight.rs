@@ -175,6 +175,9 @@ fn run_gpu(args: Args, mut r: Relighter, clamped: bool) -> Result<()> {
         Relighter::Pixel(_) => 0.0,
     };
     let mut g = prt_gpu::GpuRelighter::new(&ctx, r)?;
+    if let Some(why) = g.vertex_stages_on_cpu() {
+        eprintln!("note: the light and material stages run on the CPU: {why}");
+    }
     let (width, height) = g.relighter().size();
     let mut image = Image::new(width, height);
     let mut times = Vec::new();

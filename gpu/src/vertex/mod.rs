@@ -68,8 +68,10 @@ pub(crate) struct VertexGpu {
     cores: wgpu::Buffer,
     cubes: wgpu::Texture,
     bind_group: wgpu::BindGroup,
-    /// The stages' per-vertex work on the device; `None`: on the CPU (a part over a limit).
+    /// The stages' per-vertex work on the device; `None`: on the CPU, for the reason in
+    /// `stages_on_cpu` (a part over a limit, or the context's option).
     stages: Option<DeviceStages>,
+    stages_on_cpu: Option<String>,
     /// The stages' run counts whose results are on the device.
     light_runs: u64,
     material_runs: u64,
@@ -378,12 +380,12 @@ impl VertexGpu {
             ],
             &cubes,
         );
-        let stages = if ctx.vertex_stages_on_cpu() {
-            None
+        let (stages, stages_on_cpu) = if ctx.vertex_stages_on_cpu() {
+            (None, Some("GpuOptions::vertex_stages_on_cpu".to_string()))
         } else {
             match DeviceStages::new(ctx, s, &stage_groups, &record_layout, &records) {
-                Ok(st) => Some(st),
-                Err(GpuError::Limit { .. }) => None,
+                Ok(st) => (Some(st), None),
+                Err(e @ GpuError::Limit { .. }) => (None, Some(e.to_string())),
                 Err(e) => return Err(e),
             }
         };
@@ -405,6 +407,7 @@ impl VertexGpu {
             cubes,
             bind_group,
             stages,
+            stages_on_cpu,
             light_runs: 0,
             material_runs: 0,
             map_runs: None,
@@ -679,6 +682,11 @@ impl VertexGpu {
     /// them on the CPU: `VertexRelighter::prepare_stages`).
     pub(crate) fn device_stages(&self) -> bool {
         self.stages.is_some()
+    }
+
+    /// Why the stages' per-vertex work runs on the CPU, when it does.
+    pub(crate) fn stages_on_cpu(&self) -> Option<&str> {
+        self.stages_on_cpu.as_deref()
     }
 
     /// Renders the current view and reads it back into `out` (`3 * width * height` floats).
