@@ -80,8 +80,10 @@ def test_ctrl_c_stops_a_bake(work):
             sent.append(True)
             threading.Timer(0.01, os.kill, (os.getpid(), signal.SIGINT)).start()
 
+    # Seconds of work (16 spp took a third of a second: on a loaded machine the timer's thread
+    # could run after the bake had finished); the signal stops it within milliseconds.
     with pytest.raises(KeyboardInterrupt):
-        prt.bake(SCENES / "furnace", out=out, width=256, height=256, spp=16,
+        prt.bake(SCENES / "furnace", out=out, width=256, height=256, spp=512,
                  progress=interrupt_once)
     assert sent and not out.exists()
 
