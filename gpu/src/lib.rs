@@ -38,6 +38,7 @@
 #![warn(missing_docs)]
 
 mod buffers;
+mod compute;
 mod context;
 mod error;
 mod pixel;

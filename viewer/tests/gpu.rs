@@ -44,6 +44,20 @@ mod on_the_gpu {
         );
     }
 
+    /// Sets material `name`'s kd in `s`.
+    fn set_kd(s: &mut Settings, name: &str, value: [f32; 3]) {
+        let m = s
+            .materials
+            .iter_mut()
+            .find(|m| m.name == name)
+            .expect("the editable material");
+        for v in &mut m.values {
+            if let OverrideValue::Kd(kd) = v {
+                *kd = value;
+            }
+        }
+    }
+
     /// The renderer, its opening settings and the name of its first editable material.
     fn open(bake: &Path, gpu: bool) -> Option<(Renderer, Settings, String)> {
         match Renderer::open(bake, Some(&root().join("scenes/envmaps")), None, gpu) {
@@ -96,16 +110,7 @@ mod on_the_gpu {
             &s,
             "vitrine turned, dimmed, the eye moved",
         );
-        let m = s
-            .materials
-            .iter_mut()
-            .find(|m| m.name == editable)
-            .expect("the editable material");
-        for v in &mut m.values {
-            if let OverrideValue::Kd(kd) = v {
-                *kd = [0.9, 0.2, 0.1];
-            }
-        }
+        set_kd(&mut s, &editable, [0.9, 0.2, 0.1]);
         compare(&mut cpu, &mut gpu, &s, "vitrine, a material edited");
 
         let pixel = dir.join("cornell.prtbake");
@@ -121,16 +126,7 @@ mod on_the_gpu {
         let (mut cpu, mut s, editable) = open(&pixel, false).expect("CPU renderer");
         let (mut gpu, _, _) = open(&pixel, true).expect("GPU renderer");
         compare(&mut cpu, &mut gpu, &s, "cornell as opened");
-        let m = s
-            .materials
-            .iter_mut()
-            .find(|m| m.name == editable)
-            .expect("the editable material");
-        for v in &mut m.values {
-            if let OverrideValue::Kd(kd) = v {
-                *kd = [0.1, 0.8, 0.3];
-            }
-        }
+        set_kd(&mut s, &editable, [0.1, 0.8, 0.3]);
         compare(&mut cpu, &mut gpu, &s, "cornell, a material edited");
         let _ = std::fs::remove_dir_all(&dir);
     }

@@ -12,6 +12,7 @@ use prt_formats::lighting::cubemap::{
 use prt_formats::lighting::irradiance::{IRRADIANCE_CUBE, IRRADIANCE_SOURCE};
 use prt_formats::vertex::{cube_len, DIRECT_CUBE, T1_LIGHT_CUBE, T2_LIGHT_CUBE};
 
+use crate::compute::{Binding, ComputeProgram};
 use crate::context::GpuContext;
 use crate::error::GpuError;
 
@@ -54,7 +55,7 @@ pub(super) struct EnvironmentStage {
     haar: wgpu::ComputePipeline,
     coarse: wgpu::ComputePipeline,
     open_sky: wgpu::ComputePipeline,
-    layout: wgpu::BindGroupLayout,
+    program: ComputeProgram,
     uniform: wgpu::Buffer,
     tables: Option<wgpu::Buffer>,
     cube: wgpu::Buffer,
@@ -86,53 +87,22 @@ impl EnvironmentStage {
             ));
         }
         let device = &ctx.device;
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("prt-gpu environment"),
-            source: wgpu::ShaderSource::Wgsl(
-                concat!(
-                    include_str!("../shaders/latlong.wgsl"),
-                    include_str!("../shaders/environment.wgsl")
-                )
-                .into(),
+        let program = ComputeProgram::new(
+            device,
+            "prt-gpu environment",
+            concat!(
+                include_str!("../shaders/latlong.wgsl"),
+                include_str!("../shaders/environment.wgsl")
             ),
-        });
-        let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let read = wgpu::BufferBindingType::Storage { read_only: true };
-        let write = wgpu::BufferBindingType::Storage { read_only: false };
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("prt-gpu environment"),
-            entries: &[
-                entry(0, wgpu::BufferBindingType::Uniform),
-                entry(1, read),
-                entry(2, read),
-                entry(3, write),
-                entry(4, write),
+            &[
+                Binding::Uniform,
+                Binding::Read,
+                Binding::Read,
+                Binding::Write,
+                Binding::Write,
             ],
-        });
-        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("prt-gpu environment"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let pipeline = |entry: &str| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: Some(&pl),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
+        );
+        let pipeline = |entry: &str| program.pipeline(device, entry);
         let source_at = cube_len(DIRECT_CUBE);
         let cube = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("prt-gpu light cube"),
@@ -151,7 +121,7 @@ impl EnvironmentStage {
             haar: pipeline("haar"),
             coarse: pipeline("coarse"),
             open_sky: pipeline("open_sky"),
-            layout,
+            program,
             uniform,
             tables: None,
             cube,
@@ -249,20 +219,11 @@ impl EnvironmentStage {
             let Some(tables) = &self.tables else {
                 return Err(GpuError::Unsupported("no environment tables".into()));
             };
-            let entries: Vec<wgpu::BindGroupEntry> =
-                [&self.uniform, map, tables, &self.cube, light]
-                    .iter()
-                    .enumerate()
-                    .map(|(i, b)| wgpu::BindGroupEntry {
-                        binding: i as u32,
-                        resource: b.as_entire_binding(),
-                    })
-                    .collect();
-            self.bind = Some(ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("prt-gpu environment"),
-                layout: &self.layout,
-                entries: &entries,
-            }));
+            self.bind = Some(self.program.bind_group(
+                &ctx.device,
+                "prt-gpu environment",
+                &[&self.uniform, map, tables, &self.cube, light],
+            ));
         }
         self.block.turns = (f64::from(rotation_deg) / 360.0).rem_euclid(1.0) as f32;
         self.block.env_width = width as u32;

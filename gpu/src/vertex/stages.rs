@@ -17,6 +17,7 @@ use prt_runtime::gpu_surface::{
 
 use super::environment::{EnvironmentStage, LightTargets};
 use crate::buffers::{check_binding, storage_buffer, upload};
+use crate::compute::{Binding, ComputeProgram};
 use crate::context::GpuContext;
 use crate::error::GpuError;
 
@@ -416,26 +417,20 @@ impl DeviceStages {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let bind_layout = bind_group_layout(device);
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("prt-gpu stages"),
-            source: wgpu::ShaderSource::Wgsl(include_str!("../shaders/stages.wgsl").into()),
-        });
-        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("prt-gpu stages"),
-            bind_group_layouts: &[Some(&bind_layout)],
-            immediate_size: 0,
-        });
-        let pipeline = |entry: &str| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: Some(&pl),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
+        let program = ComputeProgram::new(
+            device,
+            "prt-gpu stages",
+            include_str!("../shaders/stages.wgsl"),
+            &[
+                Binding::Uniform,
+                Binding::Read,
+                Binding::Read,
+                Binding::Read,
+                Binding::Write,
+                Binding::Write,
+            ],
+        );
+        let pipeline = |entry: &str| program.pipeline(device, entry);
         let mut group_jobs = Vec::with_capacity(groups.len());
         for ((block, data), (tensors, active, t0, nv, coeff_at)) in
             blocks.iter().zip(&datas).zip(jobs)
@@ -449,18 +444,11 @@ impl DeviceStages {
                     wgpu::BufferUsages::UNIFORM,
                 );
                 uniform.map(|u| {
-                    device.create_bind_group(&wgpu::BindGroupDescriptor {
-                        label: Some("prt-gpu stage group"),
-                        layout: &bind_layout,
-                        entries: &[&u, &light, &coeff, &data, &work, records]
-                            .iter()
-                            .enumerate()
-                            .map(|(i, b)| wgpu::BindGroupEntry {
-                                binding: i as u32,
-                                resource: b.as_entire_binding(),
-                            })
-                            .collect::<Vec<_>>(),
-                    })
+                    program.bind_group(
+                        device,
+                        "prt-gpu stage group",
+                        &[&u, &light, &coeff, &data, &work, records],
+                    )
                 })
             });
             let [b0, b1] = bind;
@@ -706,30 +694,4 @@ fn dispatch(
     pass.set_pipeline(pipeline);
     pass.set_bind_group(0, bind, &[]);
     pass.dispatch_workgroups(x, groups.div_ceil(x), 1);
-}
-
-fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
-    let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty,
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    };
-    let read = wgpu::BufferBindingType::Storage { read_only: true };
-    let write = wgpu::BufferBindingType::Storage { read_only: false };
-    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("prt-gpu stages"),
-        entries: &[
-            entry(0, wgpu::BufferBindingType::Uniform),
-            entry(1, read),
-            entry(2, read),
-            entry(3, read),
-            entry(4, write),
-            entry(5, write),
-        ],
-    })
 }
