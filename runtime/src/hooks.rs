@@ -5,7 +5,7 @@
 //!
 //! The relighters' methods that take or give these are gated the same way:
 //! `set_kernel` (both kinds), `coefficients` (both), `PixelRelighter::time_reads`,
-//! `VertexRelighter::vertex_incident`.
+//! `VertexRelighter::vertex_incident`, `VertexRelighter::prefilter_runs`.
 
 pub use crate::vertex::incident::VertexIncident;
 pub use crate::vertex::light::LightCoefficients;

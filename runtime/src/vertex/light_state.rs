@@ -56,9 +56,8 @@ impl LightState {
     }
 }
 
-/// The light coefficients of `map` turned `rotation_deg`, with the prefiltered cubes of
-/// `widths` (nonzero, degrees) of the map **unturned** (`light::prefiltered`), computed
-/// when `unturned` does not hold them yet, and kept there.
+/// The prefiltered cubes of the current map **unturned and at intensity 1**, made once per
+/// map and kept: a turn or an intensity change of the map reuses them.
 ///
 /// Why unturned: the prefilter is a convolution with a kernel that depends only on the angle
 /// between directions, so it commutes with rotations: the prefiltered turned map at `d` is the
@@ -68,38 +67,63 @@ impl LightState {
 /// resamples (the cube texel grid is turned or the lookup is), within the bilinear lookup's
 /// own error (`runtime` test `a_turned_lookup_matches_prefiltering_the_turned_map`); at
 /// rotation 0 nothing changes.
+///
+/// Why at intensity 1: the prefilter is linear too, so the cubes of the map times `k` are the
+/// cubes times `k` (an intensity slider moved in the viewer costs a multiply per texel, not a
+/// prefilter of 0.3 to 0.7 s). Scaled by a power of two the result is the same bits.
+#[derive(Default)]
+pub(super) struct PrefilterCache {
+    cubes: Option<Vec<CubeMap>>,
+    /// How many times the prefilter ran (for the hooks' `prefilter_runs`).
+    pub(super) runs: u64,
+}
+
+impl PrefilterCache {
+    /// Forgets the cubes (the map changed).
+    pub(super) fn clear(&mut self) {
+        self.cubes = None;
+    }
+
+    /// The prefiltered cubes of `map` (as set, before its intensity) unturned for `widths`
+    /// (degrees), times `intensity`; prefiltered only when not kept yet.
+    pub(super) fn scaled(
+        &mut self,
+        map: &LatLongMap,
+        widths: &[f64],
+        intensity: f32,
+    ) -> Result<Vec<CubeMap>, LightingError> {
+        let cubes = match &self.cubes {
+            Some(cubes) => cubes,
+            None => {
+                self.runs += 1;
+                let made = light::prefiltered(&light::environment_cube(map, 0.0)?, widths)?;
+                self.cubes.insert(made)
+            }
+        };
+        if intensity == 1.0 {
+            return Ok(cubes.clone());
+        }
+        cubes
+            .iter()
+            .map(|c| {
+                let texels = c.texels().iter().map(|t| t.map(|v| v * intensity));
+                CubeMap::new(c.size(), texels.collect())
+            })
+            .collect()
+    }
+}
+
+/// The light coefficients of `map` (the lighting map: the environment times its intensity)
+/// turned `rotation_deg`, with `prefiltered`, the unturned cubes of the same light
+/// ([`PrefilterCache::scaled`]).
 pub(super) fn light_coefficients(
     map: &LatLongMap,
     rotation_deg: f32,
     widths: &[f64],
-    unturned: &mut Option<Vec<CubeMap>>,
+    prefiltered: Vec<CubeMap>,
 ) -> Result<LightCoefficients, LightingError> {
     let mut base = LightCoefficients::from_latlong(map, f64::from(rotation_deg), &[])?;
-    let prefiltered = match unturned {
-        Some(cubes) => cubes.clone(),
-        None if rotation_deg == 0.0 => {
-            let cubes = light::prefiltered(&base.cube, widths)?;
-            *unturned = Some(cubes.clone());
-            cubes
-        }
-        None => unturned_prefiltered(map, widths, unturned)?,
-    };
     base.widths_deg = widths.to_vec();
     base.prefiltered = prefiltered;
     Ok(base)
-}
-
-/// The prefiltered cubes of `map` unturned for `widths` (degrees), from `cache` or made and
-/// kept there.
-pub(super) fn unturned_prefiltered(
-    map: &LatLongMap,
-    widths: &[f64],
-    cache: &mut Option<Vec<CubeMap>>,
-) -> Result<Vec<CubeMap>, LightingError> {
-    if let Some(cubes) = cache {
-        return Ok(cubes.clone());
-    }
-    let cubes = light::prefiltered(&light::environment_cube(map, 0.0)?, widths)?;
-    *cache = Some(cubes.clone());
-    Ok(cubes)
 }

@@ -45,7 +45,7 @@ use std::time::Instant;
 
 use prt_formats::envmap::{EnvMapReport, LatLongMap};
 use prt_formats::lighting::cubemap::rotation_y;
-use prt_formats::lighting::{prefilter, CubeMap, LightingError};
+use prt_formats::lighting::{prefilter, LightingError};
 use prt_formats::overrides::OverrideValue;
 use prt_formats::pixel::MaterialParams;
 use prt_formats::vertex::VertexBakeMeta;
@@ -57,7 +57,7 @@ use crate::image::{check_len, Image, RenderStats};
 use crate::materials::{MaterialInfo, Materials};
 use constants::ShadingConstants;
 use incident::GroupShade;
-use light_state::{light_coefficients, unturned_prefiltered, LightState};
+use light_state::{light_coefficients, LightState, PrefilterCache};
 use open::Scene;
 use raster::{Rasterizer, VisibilityBuffer};
 use shade::{Environment, Lobe, Prefiltered, ViewCache, ViewInputs, Width};
@@ -95,9 +95,9 @@ pub struct VertexRelighter {
     /// `environment` times `intensity`, when the intensity is not 1: what lights the scene.
     scaled_environment: Option<LatLongMap>,
     rotation_deg: f32,
-    /// The current map's prefiltered cubes (per `prefilter_widths`) unturned: a turn of the
-    /// map reuses them, looked up at turned directions (see [`light_coefficients`]).
-    prefiltered_unturned: Option<Vec<CubeMap>>,
+    /// The current map's prefiltered cubes (per `prefilter_widths`), unturned and at
+    /// intensity 1: a turn or an intensity change reuses them ([`PrefilterCache`] says why).
+    prefiltered: PrefilterCache,
     light: Option<LightState>,
     shaded: Option<ShadeState>,
     rasterizer: Rasterizer,
@@ -201,7 +201,7 @@ impl VertexRelighter {
             intensity: 1.0,
             scaled_environment: None,
             rotation_deg,
-            prefiltered_unturned: None,
+            prefiltered: PrefilterCache::default(),
             light: None,
             shaded: None,
             rasterizer: Rasterizer::new(),
@@ -302,7 +302,7 @@ impl VertexRelighter {
         let scaled = scaled(&map, self.intensity)?;
         self.environment = map;
         self.scaled_environment = scaled;
-        self.prefiltered_unturned = None;
+        self.prefiltered.clear();
         self.map_runs += 1;
         self.light = None;
         Ok(())
@@ -371,7 +371,6 @@ impl VertexRelighter {
         }
         self.scaled_environment = scaled(&self.environment, intensity)?;
         self.intensity = intensity;
-        self.prefiltered_unturned = None;
         self.map_runs += 1;
         self.light = None;
         Ok(())
@@ -512,6 +511,13 @@ impl VertexRelighter {
         self.simd = kernel == crate::hooks::Kernel::Auto;
     }
 
+    /// How many times the environment's prefilter has run (once per map: a turn or an
+    /// intensity change reuses its cubes).
+    #[cfg(feature = "hooks")]
+    pub fn prefilter_runs(&self) -> u64 {
+        self.prefiltered.runs
+    }
+
     /// RGB coefficient of every global slot for the current parameters, and whether any
     /// parameter lay outside its basis' sampled range (and was clamped).
     #[cfg(any(feature = "hooks", feature = "gpu-surface"))]
@@ -574,13 +580,10 @@ impl VertexRelighter {
             return Ok(None);
         }
         let start = Instant::now();
-        let map = self
-            .scaled_environment
-            .as_ref()
-            .unwrap_or(&self.environment);
+        let prefiltered =
+            self.prefiltered
+                .scaled(&self.environment, &self.prefilter_widths, self.intensity)?;
         if !self.host_vertex_stages {
-            let prefiltered =
-                unturned_prefiltered(map, &self.prefilter_widths, &mut self.prefiltered_unturned)?;
             self.light = Some(LightState::Device {
                 widths_deg: self.prefilter_widths.clone(),
                 prefiltered,
@@ -590,10 +593,10 @@ impl VertexRelighter {
             return Ok(Some(start.elapsed().as_secs_f64()));
         }
         let mut coefficients = light_coefficients(
-            map,
+            self.lighting_map(),
             self.rotation_deg,
             &self.prefilter_widths,
-            &mut self.prefiltered_unturned,
+            prefiltered,
         )?;
         if self.needs_open_sky() {
             coefficients.open_sky = Some(light::open_sky(&coefficients.cube)?);
@@ -735,11 +738,13 @@ mod tests {
         let rotation = 70.0f32;
         let turned = light::environment_cube(&map, f64::from(rotation)).expect("turned cube");
         let direct = light::prefiltered(&turned, &widths).expect("prefiltered turned map");
-        let mut unturned = None;
-        let reused = light_coefficients(&map, rotation, &widths, &mut unturned)
+        let mut cache = PrefilterCache::default();
+        let unturned = cache.scaled(&map, &widths, 1.0).expect("prefiltered");
+        let reused = light_coefficients(&map, rotation, &widths, unturned)
             .expect("coefficients")
             .prefiltered;
-        assert!(unturned.is_some(), "the unturned cubes were not kept");
+        cache.scaled(&map, &widths, 2.0).expect("prefiltered");
+        assert_eq!(cache.runs, 1, "the unturned cubes were not kept");
         let env = shade::Environment {
             map: &map,
             back: rotation_y(-f64::from(rotation)),

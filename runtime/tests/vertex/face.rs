@@ -115,6 +115,9 @@ fn the_environment_setters_light_the_scene_as_they_say() {
     assert_eq!(a.environment_map(), &map);
     // Relighting is linear in the light, and scaling by two is exact in floating point: the
     // image at intensity 2 is the image at 1 doubled, bit for bit (the sky seen directly too).
+    // The prefilter, most of a light change's cost, runs once per map: an intensity change
+    // scales its cubes (the prefilter is linear), a turn looks them up turned.
+    let prefilters = a.prefilter_runs();
     a.set_environment_intensity(2.0).expect("intensity");
     assert_eq!(a.environment_intensity(), 2.0);
     let doubled: Vec<[f32; 3]> = lit.iter().map(|p| p.map(|c| 2.0 * c)).collect();
@@ -125,7 +128,21 @@ fn the_environment_setters_light_the_scene_as_they_say() {
     // Back to 1: the image it started from; a new map keeps the intensity.
     a.set_environment_intensity(1.0).expect("intensity");
     assert!(image(&mut a) == lit, "intensity 1 after 2");
+    a.set_environment_rotation(45.0).expect("rotation");
+    a.set_environment_intensity(0.3).expect("intensity");
+    image(&mut a);
+    assert_eq!(
+        a.prefilter_runs(),
+        prefilters,
+        "an intensity change or a turn prefiltered the map again"
+    );
+    a.set_environment_rotation(30.0).expect("rotation");
     a.set_environment_intensity(2.0).expect("intensity");
     a.set_environment(map).expect("map");
     assert!(image(&mut a) == doubled, "a new map dropped the intensity");
+    assert_eq!(
+        a.prefilter_runs(),
+        prefilters + 1,
+        "a new map was not prefiltered"
+    );
 }
