@@ -309,27 +309,29 @@ fn srgb8_of_display(y: f32) -> u8 {
 /// [`tonemap_srgb8_with`] through a table instead of a `powf` per channel, giving the same
 /// bytes: for tone-mapping whole frames many times a second (the viewer's canvas). The level
 /// of a shown value `y` in [0, 1] is the number of level edges at or below it; a bucket per
-/// 2^14 `f32` bit patterns holds the level at its start, so a lookup is one load and, near an
-/// edge, a comparison or two. Exact because the level never decreases as `y` grows (checked
+/// 2^16 `f32` bit patterns holds the level at its start and no bucket holds two edges, so a
+/// lookup is two loads and one comparison, without a branch. Exact because the level never decreases as `y` grows (checked
 /// at every edge and on a fine sweep of [0, 1] in the tests); `relight` keeps the direct
 /// formula, so the browser check compares two independent computations.
 #[derive(Debug, Clone)]
 pub struct Srgb8Table {
-    /// `edges[k]`: the smallest `f32` in [0, 1] whose level is `k` or more (`edges[0] = 0`).
-    edges: [f32; 256],
+    /// `edges[k]`: the smallest `f32` in [0, 1] whose level is `k` or more (`edges[0] = 0`,
+    /// `edges[256]` infinite).
+    edges: [f32; 257],
     /// The level at bit pattern `i << BUCKET_SHIFT`, for every `i` up to that of 1.0.
     buckets: Vec<u8>,
 }
 
-const BUCKET_SHIFT: u32 = 14;
+const BUCKET_SHIFT: u32 = 16;
 
 impl Srgb8Table {
     /// Builds the table (255 binary searches and 65 025 evaluations: about a millisecond).
     pub fn new() -> Srgb8Table {
         let one = 1.0f32.to_bits();
         let level = |bits: u32| srgb8_of_display(f32::from_bits(bits));
-        let mut edges = [0.0f32; 256];
-        for (k, edge) in edges.iter_mut().enumerate().skip(1) {
+        let mut edges = [0.0f32; 257];
+        edges[256] = f32::INFINITY;
+        for (k, edge) in edges.iter_mut().enumerate().take(256).skip(1) {
             // The smallest bit pattern in [0, 1] whose level reaches k (1.0's is 255).
             let (mut lo, mut hi) = (0u32, one);
             while lo < hi {
@@ -342,9 +344,18 @@ impl Srgb8Table {
             }
             *edge = f32::from_bits(lo);
         }
-        let buckets = (0..=one >> BUCKET_SHIFT)
+        let buckets: Vec<u8> = (0..=one >> BUCKET_SHIFT)
             .map(|i| level(i << BUCKET_SHIFT))
             .collect();
+        // Levels are at least 1/(12.92 * 255) apart in y and 0.009 near 1, a bucket at most
+        // 2^16 ulps (4e-3 near 1): never two edges in one bucket, which `level` relies on.
+        for (i, pair) in buckets.windows(2).enumerate() {
+            let last_in_bucket = level((((i + 1) as u32) << BUCKET_SHIFT) - 1);
+            assert!(
+                u16::from(last_in_bucket) <= u16::from(pair[0]) + 1,
+                "two sRGB level edges in bucket {i}"
+            );
+        }
         Srgb8Table { edges, buckets }
     }
 
@@ -359,17 +370,54 @@ impl Srgb8Table {
         self.level(display_value(linear, exposure, curve))
     }
 
+    /// Tone-maps linear RGB triples (`rgb`, `3 n` floats) into `rgba` (`4 n` bytes, alpha
+    /// 255), each channel as [`Srgb8Table::tonemap`] gives it. The curve is chosen once, not per
+    /// channel, so the loop is a few instructions per channel (a viewer's whole frame).
+    ///
+    /// # Panics
+    /// If `rgba.len() / 4 != rgb.len() / 3` (the caller's buffers, never user input).
+    pub fn tonemap_rgba8(&self, rgb: &[f32], exposure: f32, curve: ToneCurve, rgba: &mut [u8]) {
+        assert_eq!(rgb.len() / 3, rgba.len() / 4, "3 floats per 4 bytes");
+        match curve {
+            ToneCurve::Clamp => self.rgba8_with(rgb, exposure, rgba, |v| ToneCurve::Clamp.apply(v)),
+            ToneCurve::Reinhard => {
+                self.rgba8_with(rgb, exposure, rgba, |v| ToneCurve::Reinhard.apply(v))
+            }
+            ToneCurve::Aces => self.rgba8_with(rgb, exposure, rgba, |v| ToneCurve::Aces.apply(v)),
+        }
+    }
+
+    /// [`Srgb8Table::tonemap_rgba8`] for one curve (`apply`), inlined into the loop.
+    #[inline(always)]
+    fn rgba8_with(&self, rgb: &[f32], exposure: f32, rgba: &mut [u8], apply: impl Fn(f32) -> f32) {
+        // `display_value` with the curve fixed.
+        let shown = |linear: f32| {
+            let v = linear * exposure;
+            if v > 0.0 {
+                apply(v.min(1e18))
+            } else {
+                0.0
+            }
+        };
+        for (o, l) in rgba.chunks_exact_mut(4).zip(rgb.chunks_exact(3)) {
+            o[0] = self.level(shown(l[0]));
+            o[1] = self.level(shown(l[1]));
+            o[2] = self.level(shown(l[2]));
+            o[3] = 255;
+        }
+    }
+
     /// The 8-bit sRGB level of a shown value `y` in [0, 1] (0 below, 255 above).
+    #[inline(always)]
     pub fn level(&self, y: f32) -> u8 {
-        if y.is_nan() || y <= 0.0 {
-            return 0;
-        }
+        // NaN and values at or below 0 read bucket 0, whose level is 0 and whose next edge
+        // lies above 0. Values above 1 read the last bucket, starting at 1.0 (level 255).
+        let y = if y > 0.0 { y } else { 0.0 };
         let i = ((y.to_bits() >> BUCKET_SHIFT) as usize).min(self.buckets.len() - 1);
-        let mut k = self.buckets[i];
-        while k < 255 && y >= self.edges[usize::from(k) + 1] {
-            k += 1;
-        }
-        k
+        let k = self.buckets[i];
+        // A bucket holds at most one edge (checked in `new`), so one comparison finds the
+        // level, without a branch; `edges[256]` is infinite.
+        k + u8::from(y >= self.edges[usize::from(k) + 1])
     }
 }
 

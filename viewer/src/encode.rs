@@ -18,14 +18,7 @@ pub fn rgba8(linear: &[f32], exposure: f32, curve: ToneCurve, out: &mut Vec<u8>)
     // Rows of 1024 pixels per task: enough work to share between threads, few tasks.
     out.par_chunks_mut(4 * 1024)
         .zip(linear.par_chunks(3 * 1024))
-        .for_each(|(o, l)| {
-            for (o, l) in o.chunks_exact_mut(4).zip(l.chunks_exact(3)) {
-                o[0] = table.tonemap(l[0], exposure, curve);
-                o[1] = table.tonemap(l[1], exposure, curve);
-                o[2] = table.tonemap(l[2], exposure, curve);
-                o[3] = 255;
-            }
-        });
+        .for_each(|(o, l)| table.tonemap_rgba8(l, exposure, curve, o));
 }
 
 /// `|a - b|` per channel (the reference's difference view, tone-mapped like the images).

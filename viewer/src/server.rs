@@ -22,6 +22,7 @@ use axum::extract::{Path as UrlPath, State};
 use axum::http::{header, StatusCode};
 use axum::response::{IntoResponse, Response};
 use axum::routing::get;
+use axum::serve::ListenerExt;
 use axum::Router;
 use serde_json::json;
 use tokio::sync::mpsc;
@@ -157,6 +158,12 @@ impl Server {
                                 source,
                             }
                         })?;
+                    // Every frame is a small text message and its pixels, written at once:
+                    // without TCP_NODELAY, Nagle's algorithm may hold the last segment back
+                    // until the page acknowledges the ones before.
+                    let listener = listener.tap_io(|tcp| {
+                        let _ = tcp.set_nodelay(true);
+                    });
                     axum::serve(listener, app)
                         .await
                         .map_err(|source| ViewerError::Bind {

@@ -213,11 +213,23 @@ fn the_srgb8_table_gives_the_direct_formulas_bytes() {
                 f32::MIN_POSITIVE,
             ];
             let sweep = (0..=120_000).map(|i| 1e-6f32 * 10f32.powf(i as f32 * 1e-4));
-            for v in specials.into_iter().chain(sweep) {
+            let values: Vec<f32> = specials.into_iter().chain(sweep).collect();
+            for &v in &values {
                 assert_eq!(
                     table.tonemap(v, exposure, curve),
                     tonemap_srgb8_with(v, exposure, curve),
                     "{curve}, exposure {exposure}, radiance {v:e}"
+                );
+            }
+            // The whole-frame loop: the same bytes, each channel in its place, alpha 255.
+            let rgb: Vec<f32> = values.chunks_exact(3).flatten().copied().collect();
+            let mut rgba = vec![0u8; rgb.len() / 3 * 4];
+            table.tonemap_rgba8(&rgb, exposure, curve, &mut rgba);
+            for (p, (o, l)) in rgba.chunks_exact(4).zip(rgb.chunks_exact(3)).enumerate() {
+                let want = l.iter().map(|&v| tonemap_srgb8_with(v, exposure, curve));
+                assert!(
+                    o[..3].iter().copied().eq(want) && o[3] == 255,
+                    "{curve}, exposure {exposure}, pixel {p} {l:?}: {o:?}"
                 );
             }
         }
