@@ -4,9 +4,10 @@ with the mouse, waits for the new frame, and checks the canvas' pixels against t
 the page's "copy command" (`relight ...`) writes: the same bytes, or within one 8-bit step.
 A refused request must show its message and leave the server serving.
 
-With --screenshots DIR it saves a screenshot of each; with --measure N it times N slider moves
-and N view changes in the page (input event to pixels on the canvas), raw and PNG frames, and
-the first frame, and prints them as JSON (docs/viewer.md, "Measured")."""
+With --screenshots DIR it saves a screenshot of each; with --measure N it times, in the page
+(input event to pixels on the canvas), N moves of a per-pixel material slider (raw and PNG
+frames), N camera orbit steps and N moves of the map's rotation and intensity sliders of the
+per-vertex bake, and the first frames, and prints them as JSON (docs/viewer.md, "Measured")."""
 
 import argparse
 import base64
@@ -200,22 +201,48 @@ def check_vertex(b, args, workdir):
         view.stop()
 
 
-def latencies(b, count, step):
-    """Runs `step(i)` (which sends one request and returns its number) `count` times, waiting
-    for each frame; the page's end-to-end latencies and the server's frame times."""
-    ms, server = [], []
-    stages = {k: [] for k in ["render_ms", "tonemap_ms", "encode_ms"]}
-    for i in range(count):
-        seq = step(i)
-        frame = wait_frame(b, seq)
-        lat = b.js("const l = window.viewer.latencies; return l[l.length - 1];")
-        assert lat["seq"] == seq, (lat, seq)
-        ms.append(lat["ms"])
-        server.append(frame["render_ms"] + frame["tonemap_ms"] + frame["encode_ms"])
-        for k in stages:
-            stages[k].append(frame[k])
+# Runs a measurement inside the page: `count` times, `step(i)` (a function body that sends
+# one request and returns its number), then waits for the frame answering it through
+# `viewer.onFrame`, with nothing outside the page polling in between (WebDriver polls run
+# scripts on the page's thread and take a core from the server on a small machine).
+RUN_STEPS = """
+const [count, body] = arguments;
+const step = new Function('i', body);
+window.measureRun = { done: false, error: null };
+(async () => {
+  try {
+    for (let i = 0; i < count; i++) {
+      const seq = step(i);
+      await new Promise((resolve) => {
+        viewer.onFrame = (meta) => { if (meta.seq >= seq) { viewer.onFrame = null; resolve(); } };
+      });
+    }
+  } catch (e) {
+    window.measureRun.error = String(e);
+  }
+  window.measureRun.done = true;
+})();
+"""
+
+
+def latencies(b, count, step_js):
+    """Runs the function body `step_js` (argument `i`; sends one request, returns its number)
+    `count` times in the page, each after the previous request's frame is drawn; the page's
+    end-to-end latencies and the server's frame times."""
+    first = b.js("return window.viewer.latencies.length;")
+    b.js(RUN_STEPS, count, step_js)
+    b.wait_for("return window.measureRun.done;", 120, interval=0.5)
+    err = b.js("return window.measureRun.error;")
+    assert err is None, err
+    lats = b.js("return window.viewer.latencies.slice(arguments[0]);", first)
+    assert len(lats) == count and all(l["rendered"] for l in lats), lats
+    ms = [l["ms"] for l in lats]
+    server = [l["render_ms"] + l["tonemap_ms"] + l["encode_ms"] for l in lats]
+    stages = {k: [l[k] for l in lats] for k in ["render_ms", "tonemap_ms", "encode_ms"]}
     q = lambda xs, f: sorted(xs)[min(len(xs) - 1, int(f * len(xs)))]  # noqa: E731
+    arrived = [l["arrived_ms"] for l in lats]
     out = {"median_ms": statistics.median(ms), "p90_ms": q(ms, 0.9), "min_ms": min(ms),
+           "arrived_median_ms": statistics.median(arrived),
            "server_median_ms": statistics.median(server), "frames": count}
     out.update({f"server_{k.removesuffix('_ms')}_median_ms": statistics.median(v) for k, v in stages.items()})
     return out
@@ -231,7 +258,10 @@ def measure(b, args):
                 info = b.js("return window.viewer.info;")
                 glossy = next(m for m in info["materials"] if m["editable"] and len(m["params"]) > 2)
                 css = f'input[data-material="{glossy["name"]}"][data-param="{glossy["params"][2]["param"]}"]'
-                r = latencies(b, args.measure, lambda i: set_input(b, css, 200 + (i * 37) % 700))
+                step = f"""const e = document.querySelector({json.dumps(css)});
+                    e.value = 200 + (i * 37) % 700; e.dispatchEvent(new Event('input'));
+                    return window.viewer.sentSeq;"""
+                r = latencies(b, args.measure, step)
                 r.update(first_frame_ms=first * 1e3, size=info["size"])
                 out[f"pixel_slider_{encoding}"] = r
             finally:
@@ -243,19 +273,24 @@ def measure(b, args):
             w, h = args.measure_size
             wait_frame(b, b.js("return window.viewer.send(arguments[0]);", {"type": "size", "width": w, "height": h}))
             cam = b.js("return window.viewer.settings.view.camera;")
-
-            def orbit_step(i):
-                import math
-                d = [cam["eye"][k] - cam["target"][k] for k in range(3)]
-                a = math.radians(3 * (i + 1))
-                eye = [cam["target"][0] + d[0] * math.cos(a) + d[2] * math.sin(a), cam["eye"][1],
-                       cam["target"][2] - d[0] * math.sin(a) + d[2] * math.cos(a)]
-                return b.js("return window.viewer.send(arguments[0]);",
-                            {"type": "camera", "eye": eye, "target": cam["target"], "fov": cam["fov"]})
+            # The eye turned 3 degrees more each step about the vertical through the target.
+            orbit_step = f"""const c = {json.dumps(cam)};
+                const d = [0, 1, 2].map((k) => c.eye[k] - c.target[k]);
+                const a = 3 * (i + 1) * Math.PI / 180;
+                const eye = [c.target[0] + d[0] * Math.cos(a) + d[2] * Math.sin(a), c.eye[1],
+                             c.target[2] - d[0] * Math.sin(a) + d[2] * Math.cos(a)];
+                return window.viewer.send({{ type: "camera", eye, target: c.target, fov: c.fov }});"""
 
             r = latencies(b, args.measure, orbit_step)
             r.update(first_frame_ms=first * 1e3, size=b.js("return [window.viewer.lastFrame.width, window.viewer.lastFrame.height];"))
             out["vertex_view_change"] = r
+            # Light changes: the map turned, its intensity slider moved (the light stage, then
+            # the material and view stages).
+            for control, value in [("rotation", "(i * 7) % 360 - 180"), ("intensity", "((i * 13) % 41 - 20) / 10")]:
+                step = f"""const e = document.getElementById('{control}');
+                    e.value = {value}; e.dispatchEvent(new Event('input'));
+                    return window.viewer.sentSeq;"""
+                out[f"vertex_{control}_slider"] = latencies(b, args.measure, step)
         finally:
             view.stop()
     print(json.dumps(out, indent=1))

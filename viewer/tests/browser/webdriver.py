@@ -92,8 +92,9 @@ class Browser:
     def js(self, script, *args):
         return self.cmd("POST", "/execute/sync", {"script": script, "args": list(args)})
 
-    def wait_for(self, script, timeout=60.0, *args):
-        """Polls a JS expression (a function body returning a value) until it is truthy."""
+    def wait_for(self, script, timeout=60.0, *args, interval=0.01):
+        """Polls a JS expression (a function body returning a value) every `interval` seconds
+        until it is truthy."""
         deadline = time.time() + timeout
         while True:
             v = self.js(script, *args)
@@ -101,7 +102,7 @@ class Browser:
                 return v
             if time.time() > deadline:
                 raise TimeoutError(f"timed out waiting for: {script}")
-            time.sleep(0.01)
+            time.sleep(interval)
 
     def drag(self, css, moves, shift=False):
         """Presses the mouse at the centre of the element `css`, moves by each (dx, dy),
