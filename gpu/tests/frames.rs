@@ -465,6 +465,22 @@ fn vertex_settings(ctx: &GpuContext, path: &Path, label: &str, stages_on_device:
         v.set_size(80, 40).expect("size");
     }
     compare(&mut g, &format!("{label}: 80x40"));
+    // Lamps one texel wide every few texels, under pixels about two texels across: each
+    // background pixel averages 4x4 lookups (`background_samples`), which its centre's lookup
+    // alone misses by far more than the tolerance.
+    let (w, h) = (96usize, 48usize);
+    let lamps: Vec<f32> = (0..w * h)
+        .flat_map(|k| {
+            let lamp = k % 5 == 0 && (k / w) % 3 == 1;
+            let v = if lamp { 40.0 } else { 0.2 };
+            [v, 0.7 * v, 0.4 * v]
+        })
+        .collect();
+    if let Relighter::Vertex(v) = g.relighter_mut() {
+        v.set_environment_texels(w, h, &lamps).expect("lamps");
+        v.set_size(24, 16).expect("size");
+    }
+    compare(&mut g, &format!("{label}: lamps, 24x16"));
 }
 
 #[test]

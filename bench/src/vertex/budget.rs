@@ -298,9 +298,9 @@ fn section(
          renders, measured the same way per region. Regions are what each pixel's camera ray \
          meets first. Each row's figures are relative L2 over the region (whole image first) \
          and, in brackets, the region's mean over the truth's: a ratio away from 1 by more \
-         than the noise's is a bias. The background compares the runtime's lookup of the map at \
-         each pixel's centre with the reference's average over the pixel (oversampled): a lamp \
-         narrower than a pixel decides that region's mean. Method: \
+         than the noise's is a bias. The background compares the runtime's average of the map \
+         over each pixel (`k x k` lookups, docs/vertex.md) with the reference's (its jittered \
+         camera rays). Method: \
          `bench/src/vertex/budget.rs`.\n",
         args.config.display(),
         utc_now(),

@@ -35,7 +35,8 @@ struct Frame {
     cube_size_at: u32,
     // The open sky's irradiance table among the cubes, or -1.
     open_sky_cube: i32,
-    pad1: u32,
+    // Sub-samples per side of a background pixel (VertexSurface::background_samples).
+    background_samples: u32,
 }
 
 struct Material {
@@ -162,13 +163,32 @@ fn background_vertex(@builtin(vertex_index) k: u32) -> BackgroundOut {
     return out;
 }
 
+// The radiance through film position (x, y) in pixels (the film formula).
+fn film_radiance(x: f32, y: f32) -> vec3<f32> {
+    let sx = (2.0 * x / frame.width - 1.0) * frame.tan_half_fov * frame.aspect;
+    let sy = (1.0 - 2.0 * y / frame.height) * frame.tan_half_fov;
+    let d = normalize(frame.forward.xyz + frame.right.xyz * sx + frame.up.xyz * sy);
+    return radiance(d);
+}
+
+// The map averaged over k x k film positions at the centres of a regular grid over the pixel
+// (k = frame.background_samples; 1: its centre), summed row by row as the CPU sums them.
 @fragment
 fn background_fragment(in: BackgroundOut) -> @location(0) vec4<f32> {
-    // The pixel's centre, (x + 0.5, y + 0.5), through the film formula.
-    let sx = (2.0 * in.position.x / frame.width - 1.0) * frame.tan_half_fov * frame.aspect;
-    let sy = (1.0 - 2.0 * in.position.y / frame.height) * frame.tan_half_fov;
-    let d = normalize(frame.forward.xyz + frame.right.xyz * sx + frame.up.xyz * sy);
-    return vec4<f32>(radiance(d), 1.0);
+    let k = max(frame.background_samples, 1u);
+    if k == 1u {
+        return vec4<f32>(film_radiance(in.position.x, in.position.y), 1.0);
+    }
+    let corner = floor(in.position.xy);
+    let step = 1.0 / f32(k);
+    var sum = vec3<f32>(0.0);
+    for (var j = 0u; j < k; j++) {
+        for (var i = 0u; i < k; i++) {
+            let at = corner + (vec2<f32>(f32(i), f32(j)) + 0.5) * step;
+            sum += film_radiance(at.x, at.y);
+        }
+    }
+    return vec4<f32>(sum / f32(k * k), 1.0);
 }
 
 // R_y(-rotation) d.

@@ -30,7 +30,8 @@ pub(super) struct FrameBlock {
     pub(super) cube_size_at: u32,
     /// The open sky's irradiance table among the cubes (after the prefiltered ones), or -1.
     pub(super) open_sky_cube: i32,
-    pub(super) pad: u32,
+    /// Sub-samples per side of a background pixel (`VertexSurface::background_samples`).
+    pub(super) background_samples: u32,
 }
 
 /// `Material` in the shader.

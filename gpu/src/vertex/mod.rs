@@ -583,6 +583,7 @@ impl VertexGpu {
             turned: u32::from(s.environment_rotation() != 0.0),
             width: width as f32,
             height: height as f32,
+            background_samples: s.background_samples(),
             ..self.offsets
         }
     }

@@ -217,6 +217,30 @@ pub(super) struct Environment<'a> {
 }
 
 impl Environment<'_> {
+    /// A pixel that sees the environment: the map averaged over `k x k` film positions at the
+    /// centres of a regular grid over pixel `(px, py)` (`k` from `view::background_samples`;
+    /// 1: its centre), summed in that order.
+    #[inline(always)]
+    pub(super) fn pixel_average(&self, rays: &ViewRays, px: u32, py: u32, k: u32) -> [f32; 3] {
+        if k <= 1 {
+            return self.radiance(rays.pixel_direction(px, py));
+        }
+        let step = 1.0 / f64::from(k);
+        let mut sum = [0.0f32; 3];
+        for j in 0..k {
+            for i in 0..k {
+                let x = f64::from(px) + (f64::from(i) + 0.5) * step;
+                let y = f64::from(py) + (f64::from(j) + 0.5) * step;
+                let r = self.radiance(rays.direction(x, y).map(|c| c as f32));
+                for c in 0..3 {
+                    sum[c] += r[c];
+                }
+            }
+        }
+        let n = (k * k) as f32;
+        sum.map(|v| v / n)
+    }
+
     /// The radiance arriving from (unit) direction `d`.
     #[inline(always)]
     pub(super) fn radiance(&self, d: [f32; 3]) -> [f32; 3] {
@@ -256,6 +280,8 @@ pub(super) struct ViewInputs<'a> {
     pub light: &'a LightCoefficients,
     pub environment: Environment<'a>,
     pub eye: [f32; 3],
+    /// Sub-samples per side of a background pixel (`view::background_samples`).
+    pub background_samples: u32,
 }
 
 /// Shades every pixel of `vis` into `out` (RGB rows, top row first), rows in parallel; `simd`
@@ -308,7 +334,7 @@ fn shade_row(inputs: &ViewInputs, rays: &ViewRays, y: u32, frags: &[Fragment], r
         let rgb = if f.is_empty() {
             inputs
                 .environment
-                .radiance(rays.pixel_direction(x as u32, y))
+                .pixel_average(rays, x as u32, y, inputs.background_samples)
         } else {
             inputs.shade(f.triangle as usize, f.bary)
         };

@@ -259,6 +259,20 @@ impl<'a> VertexSurface<'a> {
         (self.r.width, self.r.height)
     }
 
+    /// Sub-samples per side a pixel that sees the environment averages, on a regular `k x k`
+    /// grid of film positions at `(px + (i + 0.5) / k, py + (j + 0.5) / k)`, summed row by
+    /// row and divided by `k^2` (1: the pixel's centre), for the current camera, size and
+    /// map: the same count the CPU's view stage uses.
+    pub fn background_samples(&self) -> u32 {
+        let map = self.r.lighting_map();
+        super::view::background_samples(
+            (f64::from(self.r.camera.yfov) * 0.5).tan(),
+            self.r.height,
+            map.width,
+            map.height,
+        )
+    }
+
     /// Vertex positions (world).
     pub fn positions(&self) -> &'a [[f32; 3]] {
         &self.r.scene.positions
