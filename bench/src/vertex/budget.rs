@@ -18,7 +18,16 @@
 //! - **the rest** (the last reflection's Tucker shading and specular split, the 6x16x16
 //!   visibility, I1's order-4 SH, per-vertex interpolation, the rasterizer's pixel centres):
 //!   the dense bake with the most terms against the truth; what the parts above do not
-//!   explain.
+//!   explain. It is split three ways, each against the full truth's magnitude so that the
+//!   parts' squares add up to the rest's (where they do not correlate):
+//!   - **direct light**: that bake relit with I1 and I2 off
+//!     (`VertexRelighter::set_direct_light_only`) against a second ground truth traced with
+//!     one reflection (the light seen directly, reflected once: I0 exactly);
+//!   - **reflected light**: the relit image less its direct part against the truth less its
+//!     one-reflection part (I1 and I2 against the light after two or more reflections);
+//!   - **pixel centres**: the relit image (one ray through each pixel's centre meets the
+//!     geometry) against the same relighter rendered 2 x 2 per pixel and averaged, as the
+//!     reference's jittered rays average silhouettes and textures.
 //!
 //! A part's figure is the relative L2 (and mean ratio) of the image it changes, per region;
 //! a mean ratio away from 1 by more than the noise is a bias.
@@ -106,6 +115,23 @@ impl Regions {
         Regions { names, masks }
     }
 
+    /// The L2 norm of `image` over the whole image, then over each region.
+    fn norms(&self, image: &[[f32; 3]]) -> Vec<f64> {
+        let all = vec![true; image.len()];
+        std::iter::once(&all)
+            .chain(&self.masks)
+            .map(|m| {
+                image
+                    .iter()
+                    .zip(m)
+                    .filter(|(_, &inside)| inside)
+                    .map(|(p, _)| p.iter().map(|&c| f64::from(c).powi(2)).sum::<f64>())
+                    .sum::<f64>()
+                    .sqrt()
+            })
+            .collect()
+    }
+
     /// The whole image, then each region.
     fn errors(&self, a: &[[f32; 3]], b: &[[f32; 3]]) -> Vec<RegionError> {
         let all = vec![true; a.len()];
@@ -138,18 +164,25 @@ fn mean_of(images: &[Pixels]) -> Pixels {
         .collect()
 }
 
+/// The ground truth under `light` traced with `reflections` reflections (the config's, or 1:
+/// the direct light alone).
 fn truth(
     args: &BudgetArgs,
     config: &BakeConfig,
     scene: &Scene,
     light: &Light,
     regions: &Regions,
+    reflections: u32,
 ) -> Result<Truth> {
     let k = args.references.max(2);
+    let config = &BakeConfig {
+        reflections,
+        ..config.clone()
+    };
     let mut renders = Vec::new();
     for i in 0..k {
         eprintln!(
-            "budget: reference {} of {k} under {} ({} spp)",
+            "budget: reference {} of {k} under {} ({} spp, {reflections} reflection(s))",
             i + 1,
             light.name,
             args.reference_spp
@@ -218,7 +251,11 @@ pub fn run(args: &BudgetArgs) -> Result<String> {
     let regions = Regions::of(&scene, args.size);
     let truths = LIGHTS
         .iter()
-        .map(|l| truth(args, &config, &scene, l, &regions))
+        .map(|l| truth(args, &config, &scene, l, &regions, config.reflections))
+        .collect::<Result<Vec<_>>>()?;
+    let direct_truths = LIGHTS
+        .iter()
+        .map(|l| truth(args, &config, &scene, l, &regions, 1))
         .collect::<Result<Vec<_>>>()?;
 
     let settings = settings(args);
@@ -239,23 +276,110 @@ pub fn run(args: &BudgetArgs) -> Result<String> {
         false,
     )?);
     let intensity = map_intensity(&config);
-    // images[bake][light]
+    // images[bake][light]; the last bake (the most T0 terms) also with the direct light
+    // alone and 2 x 2 per pixel: split[light].
     let mut images: Vec<Vec<Pixels>> = Vec::new();
-    for b in &baked {
+    let mut split = Vec::new();
+    for (i, b) in baked.iter().enumerate() {
         let mut per_light = Vec::new();
         for light in &LIGHTS {
-            per_light.push(render(&mut lit(&b.path, light, intensity)?, args.size)?.0);
+            let mut r = lit(&b.path, light, intensity)?;
+            per_light.push(render(&mut r, args.size)?.0);
+            if i + 1 == baked.len() {
+                let supersampled = box_down(&render(&mut r, 2 * args.size)?.0, 2 * args.size);
+                r.set_direct_light_only(true);
+                let direct = render(&mut r, args.size)?.0;
+                split.push(Split {
+                    direct,
+                    supersampled,
+                });
+            }
         }
         images.push(per_light);
         let _ = std::fs::remove_file(&b.path);
     }
 
-    let section = section(args, &regions, &settings, &truths, &images);
+    let section = section(
+        args,
+        &regions,
+        &settings,
+        &Measured {
+            truths,
+            direct_truths,
+            images,
+            split,
+        },
+    );
     if args.out.as_os_str() != "-" {
         let (begin, end) = markers(&args.config);
         crate::util::write_section(&args.out, &section, &begin, &end)?;
     }
     Ok(section)
+}
+
+/// The relit images that split "the rest" under one light.
+struct Split {
+    /// I1 and I2 off.
+    direct: Pixels,
+    /// 2 x 2 per pixel, averaged.
+    supersampled: Pixels,
+}
+
+/// Everything a section reports: per light, the truths and the relit images.
+struct Measured {
+    truths: Vec<Truth>,
+    /// Traced with one reflection.
+    direct_truths: Vec<Truth>,
+    /// `[bake][light]`.
+    images: Vec<Vec<Pixels>>,
+    /// `[light]`, of the last bake.
+    split: Vec<Split>,
+}
+
+/// The mean of each 2 x 2 block of a `side` x `side` image (rows first): the image at half
+/// the side, each pixel the average over its area.
+fn box_down(image: &[[f32; 3]], side: u32) -> Pixels {
+    let (side, half) = (side as usize, side as usize / 2);
+    let mut out = vec![[0.0f32; 3]; half * half];
+    for (i, o) in out.iter_mut().enumerate() {
+        let (x, y) = (2 * (i % half), 2 * (i / half));
+        for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+            let p = image[(y + dy) * side + x + dx];
+            for c in 0..3 {
+                o[c] += 0.25 * p[c];
+            }
+        }
+    }
+    out
+}
+
+/// `a - b`, pixel by pixel.
+fn difference(a: &[[f32; 3]], b: &[[f32; 3]]) -> Pixels {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| [x[0] - y[0], x[1] - y[1], x[2] - y[2]])
+        .collect()
+}
+
+/// `a` against `b` per region (the whole image first), the relative L2 taken over the
+/// `truth`'s magnitude instead of `b`'s: the part's contribution to the image's error. The
+/// mean ratio stays `a`'s over `b`'s.
+fn contribution(
+    regions: &Regions,
+    a: &[[f32; 3]],
+    b: &[[f32; 3]],
+    truth: &[[f32; 3]],
+) -> Vec<RegionError> {
+    let (of_b, of_truth) = (regions.norms(b), regions.norms(truth));
+    regions
+        .errors(a, b)
+        .into_iter()
+        .zip(of_b.iter().zip(&of_truth))
+        .map(|(mut e, (nb, nt))| {
+            e.relative_l2 *= nb / nt;
+            e
+        })
+        .collect()
 }
 
 fn pct(x: f64) -> String {
@@ -274,13 +398,8 @@ fn ratio(x: f64) -> String {
     }
 }
 
-fn section(
-    args: &BudgetArgs,
-    regions: &Regions,
-    settings: &[Setting],
-    truths: &[Truth],
-    images: &[Vec<Pixels>],
-) -> String {
+fn section(args: &BudgetArgs, regions: &Regions, settings: &[Setting], m: &Measured) -> String {
+    let (truths, images) = (&m.truths, &m.images);
     let (begin, end) = markers(&args.config);
     let mut s = String::new();
     let _ = writeln!(s, "{begin}");
@@ -291,7 +410,7 @@ fn section(
     let _ = writeln!(s, "### {name}\n");
     let _ = writeln!(
         s,
-        "Generated by `cargo run --release -p prt-bench -- budget --config {}` on {} ({}, \
+        "Generated by `cargo run --release -p prt-bench -- budget --config {} --size {} --references {} --reference-spp {}` on {} ({}, \
          load {}, commit {}). {}x{} images from the config's camera. Ground truth: the mean of \
          {} reference renders of {} spp with independent seeds ({} spp in all); its noise \
          (\"truth noise\") is half the distance between the means of the odd and the even \
@@ -300,9 +419,17 @@ fn section(
          and, in brackets, the region's mean over the truth's: a ratio away from 1 by more \
          than the noise's is a bias. The background compares the runtime's average of the map \
          over each pixel (`k x k` lookups, docs/vertex.md) with the reference's (its jittered \
-         camera rays). Method: \
-         `bench/src/vertex/budget.rs`.\n",
+         camera rays). The indented rows split \"the rest\", each over the truth's magnitude \
+         so that their squares add up to the rest's where they do not correlate: the direct \
+         light (the relit image with I1 and I2 off) against a second truth traced with one \
+         reflection, the same number of renders and samples; the reflected light (each image \
+         less its direct part); the pixel centres (the relit image against the same relighter \
+         rendered 2 x 2 per pixel and averaged, as the reference's jittered rays average \
+         silhouettes). Method: `bench/src/vertex/budget.rs`.\n",
         args.config.display(),
+        args.size,
+        args.references.max(2),
+        args.reference_spp,
         utc_now(),
         cpu_model(),
         load_average(),
@@ -390,6 +517,59 @@ fn section(
             &mut s,
             &format!("the rest ({} T0 terms vs truth)", args.t0_terms),
             &regions.errors(&images[t0][li], &truth.mean),
+            true,
+        );
+        let (split, one) = (&m.split[li], &m.direct_truths[li]);
+        // The one-reflection truth's noise over the full truth's magnitude.
+        let (of_one, of_truth) = (regions.norms(&one.mean), regions.norms(&truth.mean));
+        let mut one_noise = one.noise.clone();
+        for (e, (n1, nt)) in one_noise.iter_mut().zip(of_one.iter().zip(&of_truth)) {
+            e.relative_l2 *= n1 / nt;
+        }
+        let reflected_truth = difference(&truth.mean, &one.mean);
+        let mut share = regions.errors(&reflected_truth, &truth.mean);
+        for e in &mut share {
+            e.relative_l2 = e.mean_ratio;
+        }
+        row(
+            &mut s,
+            "&nbsp; reflected light's share of the truth's mean",
+            &share,
+            false,
+        );
+        row(
+            &mut s,
+            "&nbsp; noise of the truth of one reflection",
+            &one_noise,
+            false,
+        );
+        row(
+            &mut s,
+            "&nbsp; direct light (I0 alone vs the truth of one reflection)",
+            &contribution(regions, &split.direct, &one.mean, &truth.mean),
+            true,
+        );
+        row(
+            &mut s,
+            "&nbsp; reflected light (the rest less I0 vs the truth less one reflection's)",
+            &contribution(
+                regions,
+                &difference(&images[t0][li], &split.direct),
+                &reflected_truth,
+                &truth.mean,
+            ),
+            true,
+        );
+        row(
+            &mut s,
+            "&nbsp; pixel centres (vs the same 2 x 2 per pixel, averaged)",
+            &contribution(regions, &images[t0][li], &split.supersampled, &truth.mean),
+            true,
+        );
+        row(
+            &mut s,
+            "the rest at 2 x 2 per pixel (vs truth)",
+            &regions.errors(&split.supersampled, &truth.mean),
             true,
         );
         let whole = relative_l2(&images[defaults][li], &truth.mean);

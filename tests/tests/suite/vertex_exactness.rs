@@ -365,6 +365,8 @@ fn relit_incident_light_equals_an_independent_projection_of_the_traced_paths() {
     let (n1, n2) = (N1 as f64, N2 as f64);
 
     let mut worst = [0.0f64; 4];
+    // Per vertex, T0's texel sums (the U rows, then E): the direct light alone, checked below.
+    let mut direct_sums: Vec<Vec<Sum>> = Vec::new();
     // Per group: vertices whose I1, I2 were nonzero (so no group passes vacuously).
     let mut lit = vec![[0usize; 2]; meta.groups.len()];
     for v in 0..scene.positions.len() {
@@ -401,6 +403,8 @@ fn relit_incident_light_equals_an_independent_projection_of_the_traced_paths() {
                 }
             }
         }
+
+        direct_sums.push(t0.clone());
 
         // T1 and T2: every escaping path, projected here.
         let mut i1 = [Sum::default(); SH_COUNT];
@@ -531,5 +535,52 @@ fn relit_incident_light_equals_an_independent_projection_of_the_traced_paths() {
             lit[g]
         );
     }
+
+    // The budget's direct-light switch: the same vertices with I1 and I2 switched off have
+    // T0's texel sums alone as E and U, and no one- or two-reflection light.
+    r.set_direct_light_only(true);
+    let mut worst_direct = 0.0f64;
+    for (v, t0) in direct_sums.iter().enumerate() {
+        let got = r
+            .vertex_incident(v)
+            .expect("vertex incident light")
+            .expect("every vertex is in a group");
+        let zero = [0.0f32; 3];
+        assert!(
+            got.one_bounce_sh.iter().all(|s| *s == zero) && got.two_bounce == zero,
+            "vertex {v}: direct light only, yet I1 {:?}, I2 {:?}",
+            got.one_bounce_sh,
+            got.two_bounce
+        );
+        let rows = t0.len();
+        let wanted = std::iter::once(("E".to_string(), got.irradiance, &t0[rows - 1])).chain(
+            got.incident
+                .iter()
+                .zip(t0)
+                .enumerate()
+                .map(|(c, (&u, sum))| (format!("U[{c}]"), u, sum)),
+        );
+        for (what, got, want) in wanted {
+            for ch in 0..3 {
+                let d = (got[ch] as f64 - want.value[ch]).abs();
+                let rel = if want.scale[ch] > 0.0 {
+                    d / want.scale[ch]
+                } else {
+                    d
+                };
+                worst_direct = worst_direct.max(rel);
+                assert!(
+                    rel <= TOLERANCE_T0,
+                    "vertex {v}, direct light only: {what} channel {ch} is {} where T0's texel \
+                     sum is {} ({rel:.2e} of its magnitude)",
+                    got[ch],
+                    want.value[ch]
+                );
+            }
+        }
+    }
+    eprintln!(
+        "vertex exactness, direct light only: largest difference / magnitude {worst_direct:.2e}"
+    );
     let _ = std::fs::remove_file(&path);
 }
