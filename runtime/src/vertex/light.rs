@@ -151,11 +151,11 @@ pub(crate) fn prefiltered(
             if sigma == 0.0 {
                 return Ok(None);
             }
-            Ok(Some(prefilter::Prefilter::new(
-                cube,
-                sigma,
-                prefilter::output_size(sigma)?,
-            )?))
+            // Never finer than the light's own cube: a width narrower than the cube's texels
+            // (the split's spike, `ShadingBasis::spike_width_deg`) would otherwise be
+            // prefiltered onto a finer cube that holds nothing the light does not.
+            let size = prefilter::output_size(sigma)?.min(cube.size());
+            Ok(Some(prefilter::Prefilter::new(cube, sigma, size)?))
         })
         .collect::<Result<Vec<_>, LightingError>>()?;
     let jobs: Vec<(usize, Face)> = filters

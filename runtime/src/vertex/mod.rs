@@ -60,7 +60,7 @@ use incident::GroupShade;
 use light_state::{light_coefficients, LightState, PrefilterCache};
 use open::Scene;
 use raster::{Rasterizer, VisibilityBuffer};
-use shade::{Environment, Lobe, Prefiltered, ViewCache, ViewInputs, Width};
+use shade::{Environment, Lobe, ViewCache, ViewInputs, Width};
 use view::{eye_verdict, ViewRays};
 
 /// The image side of a per-vertex bake until [`VertexRelighter::set_size`] changes it (the
@@ -157,35 +157,30 @@ impl VertexRelighter {
             }
         }
         let constants = scene.shading.iter().map(ShadingConstants::new).collect();
+        // Every width is a prefiltered cube, width 0 too (`ShadingBasis::spike_width_deg`).
         let mut prefilter_widths: Vec<f64> = scene
             .shading
             .iter()
-            .flat_map(|b| b.split_widths_deg.iter())
-            .filter(|&&w| w != 0.0)
-            .map(|&w| f64::from(w))
+            .flat_map(|b| (0..b.n_widths()).filter_map(|k| b.rendered_width_deg(k)))
+            .map(f64::from)
             .collect();
         prefilter_widths.sort_by(f64::total_cmp);
         prefilter_widths.dedup();
         let mut widths = Vec::with_capacity(scene.shading.len());
         for b in &scene.shading {
             let mut ws = Vec::with_capacity(b.split_widths_deg.len());
-            for &w in &b.split_widths_deg {
-                let (lookup, sh_factors) = if w == 0.0 {
-                    (Prefiltered::Environment, [1.0; 4])
-                } else {
-                    let sigma = f64::from(w).to_radians();
-                    let f = prefilter::sh_factors(sigma)?;
-                    let k = prefilter::kernel_integral(sigma)?;
-                    let i = prefilter_widths
-                        .iter()
-                        .position(|&x| x == f64::from(w))
-                        .unwrap_or(usize::MAX);
-                    (Prefiltered::Cube(i), f.map(|x| (x / k) as f32))
-                };
+            for w in (0..b.n_widths()).filter_map(|k| b.rendered_width_deg(k)) {
+                let sigma = f64::from(w).to_radians();
+                let f = prefilter::sh_factors(sigma)?;
+                let k = prefilter::kernel_integral(sigma)?;
+                let i = prefilter_widths
+                    .iter()
+                    .position(|&x| x == f64::from(w))
+                    .unwrap_or(usize::MAX);
                 ws.push(Width {
                     degrees: w,
-                    lookup,
-                    sh_factors,
+                    cube: i,
+                    sh_factors: f.map(|x| (x / k) as f32),
                 });
             }
             widths.push(ws);
@@ -460,8 +455,8 @@ impl VertexRelighter {
         };
         for (b, ws) in self.widths.iter().enumerate() {
             for w in ws {
-                if let Prefiltered::Cube(i) = w.lookup {
-                    if light.widths_deg().get(i) != Some(&f64::from(w.degrees)) {
+                {
+                    if light.widths_deg().get(w.cube) != Some(&f64::from(w.degrees)) {
                         return Err(RuntimeError::VertexSchema {
                             path: self.file.path().display().to_string(),
                             reason: format!(

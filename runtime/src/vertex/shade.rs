@@ -54,22 +54,14 @@ use crate::error::RuntimeError;
 /// The longest vertex record (`U_AT + 3 MAX_SHADING_RANK`).
 const MAX_RECORD: usize = U_AT + 3 * MAX_SHADING_RANK;
 
-/// Where a split width's prefiltered environment comes from.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) enum Prefiltered {
-    /// Width 0: the environment itself.
-    Environment,
-    /// `LightCoefficients::prefiltered[i]`.
-    Cube(usize),
-}
-
 /// One split width of a shading basis, as the view stage reads it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Width {
     /// The width in degrees (as the basis stores it).
     pub degrees: f32,
-    /// Where its `Ibar_w` is looked up.
-    pub lookup: Prefiltered,
+    /// Its `Ibar_w`: `LightCoefficients::prefiltered[cube]` (every width, 0 too, is a
+    /// prefiltered cube: `ShadingBasis::rendered_width_deg`).
+    pub cube: usize,
     /// `g_w[l]`: the normalized Gaussian's SH factor of band l.
     pub sh_factors: [f32; SH_BANDS],
 }
@@ -512,12 +504,7 @@ impl ViewInputs<'_> {
         let (pface, ps, pt) = self.environment.prefiltered_at(r_w, (face, fs, ft));
         let mut prefiltered = [[0.0f32; 3]; MAX_SPLIT_WIDTHS];
         for (pw, wd) in prefiltered.iter_mut().zip(widths) {
-            let ibar = match wd.lookup {
-                Prefiltered::Environment => self.environment.radiance(r_w),
-                Prefiltered::Cube(i) => {
-                    self.light.prefiltered[i].lookup_bilinear_face_st(pface, ps, pt)
-                }
-            };
+            let ibar = self.light.prefiltered[wd.cube].lookup_bilinear_face_st(pface, ps, pt);
             for c in 0..3 {
                 let sh: f32 = (0..SH_BANDS).map(|l| wd.sh_factors[l] * bands[l][c]).sum();
                 pw[c] = visible * ibar[c] + sh + rec[I2_AT + c];

@@ -13,7 +13,6 @@ use prt_formats::vertex::names;
 use prt_formats::view::CameraFrame;
 
 use super::incident::{E_AT, I1_AT, I2_AT, U_AT};
-use super::shade::Prefiltered;
 use super::VertexRelighter;
 use crate::error::RuntimeError;
 
@@ -375,10 +374,7 @@ impl<'a> VertexSurface<'a> {
         let w = self.r.widths.get(b)?.get(k)?;
         Some(SplitWidth {
             degrees: w.degrees,
-            prefiltered: match w.lookup {
-                Prefiltered::Environment => None,
-                Prefiltered::Cube(i) => Some(i),
-            },
+            prefiltered: Some(w.cube),
             sh_factors: w.sh_factors,
         })
     }

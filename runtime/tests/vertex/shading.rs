@@ -341,6 +341,8 @@ fn reflected_light_reaches_the_last_reflection_through_sh_and_the_uniform_term()
     // S_w = g_w0 I1_0 Y_00 + g_w1 I1_2 Y_10(r) + I2 with the normalized Gaussian's factors.
     let (a, refl) = (0.05f32, [0.2f32, 0.1, 0.3, 0.1]);
     let basis = constant_basis(a, refl, false);
+    // Width 0 is rendered as a grid cell's Gaussian (`ShadingBasis::spike_width_deg`).
+    let spike = f64::from(basis.spike_width_deg());
     let mesh = Mesh::quad(UP, 0);
     let rows: Vec<_> = (0..4).map(|_| vec![vec![0.0f32; 8]; 2]).collect();
     let mut g = Group::new(vec![0, 1, 2, 3], &rows, 1, 1, 1);
@@ -365,12 +367,9 @@ fn reflected_light_reaches_the_last_reflection_through_sh_and_the_uniform_term()
     let pi = std::f64::consts::PI;
     let (t, b) = vertex_frame(UP);
     // The slot coefficient of slot 0 (the material's Kd).
-    let factors: Vec<[f64; 4]> = [0.0f64, 7.0, 14.0, 21.0]
+    let factors: Vec<[f64; 4]> = [spike, 7.0, 14.0, 21.0]
         .iter()
         .map(|&w| {
-            if w == 0.0 {
-                return [1.0; 4];
-            }
             let s = f64::to_radians(w);
             let f = prt_formats::lighting::prefilter::sh_factors(s).expect("factors");
             let k = prt_formats::lighting::prefilter::kernel_integral(s).expect("integral");

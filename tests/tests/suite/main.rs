@@ -15,4 +15,5 @@ mod runtime_threads;
 mod vertex_compressed;
 mod vertex_convergence;
 mod vertex_exactness;
+mod vertex_highlight;
 mod vertex_weld;
