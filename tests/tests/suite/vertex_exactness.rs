@@ -561,8 +561,8 @@ fn relit_incident_light_equals_an_independent_projection_of_the_traced_paths() {
                 .map(|(c, (&u, sum))| (format!("U[{c}]"), u, sum)),
         );
         for (what, got, want) in wanted {
-            for ch in 0..3 {
-                let d = (got[ch] as f64 - want.value[ch]).abs();
+            for (ch, &x) in got.iter().enumerate() {
+                let d = (x as f64 - want.value[ch]).abs();
                 let rel = if want.scale[ch] > 0.0 {
                     d / want.scale[ch]
                 } else {
@@ -571,9 +571,8 @@ fn relit_incident_light_equals_an_independent_projection_of_the_traced_paths() {
                 worst_direct = worst_direct.max(rel);
                 assert!(
                     rel <= TOLERANCE_T0,
-                    "vertex {v}, direct light only: {what} channel {ch} is {} where T0's texel \
+                    "vertex {v}, direct light only: {what} channel {ch} is {x} where T0's texel \
                      sum is {} ({rel:.2e} of its magnitude)",
-                    got[ch],
                     want.value[ch]
                 );
             }
