@@ -179,10 +179,9 @@ fn linear_sky() -> Environment {
     }
 }
 
-/// Bakes `scene` per vertex (f32, N1 = 16) and relights it at `w x h` from its camera; renders
-/// the reference with its normal map and without; returns (relit vs reference, the map's own
-/// effect on the reference), relative L2.
-fn per_vertex_against_reference(scene: &Scene, m: usize, name: &str) -> (f64, f64) {
+/// Bakes `scene` per vertex (f32, N1 = 16, the default GGX shading basis) into a temporary
+/// file named after `name`; returns its path.
+pub(crate) fn bake_per_vertex_f32(scene: &Scene, name: &str) -> std::path::PathBuf {
     let shading =
         vec![prt_bake::basis::shading::default_shading_basis(Family::Ggx).expect("shading basis")];
     let opts = prt_bake::vertex::VertexBakeOptions {
@@ -190,8 +189,16 @@ fn per_vertex_against_reference(scene: &Scene, m: usize, name: &str) -> (f64, f6
         precision: Precision::F32,
         ..Default::default()
     };
-    let path = temp_path(&format!("normal-map-{name}.prt"));
+    let path = temp_path(&format!("{name}.prt"));
     prt_bake::vertex::bake_vertex(scene, &[], &shading, &opts, &path, None).expect("bake");
+    path
+}
+
+/// Bakes `scene` per vertex ([`bake_per_vertex_f32`]) and relights it at `w x h` from its
+/// camera; renders the reference with its normal map and without; returns (relit vs
+/// reference, the map's own effect on the reference), relative L2.
+fn per_vertex_against_reference(scene: &Scene, m: usize, name: &str) -> (f64, f64) {
+    let path = bake_per_vertex_f32(scene, &format!("normal-map-{name}"));
     let (w, h) = (48, 48);
     let mut r = VertexRelighter::open(&path).expect("open");
     r.set_size(w, h).expect("size");

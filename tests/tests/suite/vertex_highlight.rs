@@ -5,13 +5,12 @@
 
 use glam::Vec3;
 use prt_bake::brdf::{BrdfParams, Family};
-use prt_bake::pixel::Precision;
 use prt_bake::scene::Environment;
 use prt_bake::testing::{look_at, SceneBuilder};
 use prt_runtime::VertexRelighter;
-use prt_tests::{relative_l2, temp_path};
+use prt_tests::relative_l2;
 
-use crate::normal_maps::mapped_square;
+use crate::normal_maps::{bake_per_vertex_f32, mapped_square};
 
 /// A dim sky (0.2) with a sun one texel of a 512 x 256 map wide (0.7 degrees, radiance
 /// 2000) at `sun`: smaller than a cell of the shading grid and than the light's 64-cube texels.
@@ -58,15 +57,7 @@ fn a_sun_smaller_than_a_cell_gives_the_lobe_shaped_highlight() {
     b.camera(look_at(eye, Vec3::ZERO, Vec3::Y, 30f32.to_radians()));
     let scene = b.build();
 
-    let shading =
-        vec![prt_bake::basis::shading::default_shading_basis(Family::Ggx).expect("shading basis")];
-    let opts = prt_bake::vertex::VertexBakeOptions {
-        samples: 16,
-        precision: Precision::F32,
-        ..Default::default()
-    };
-    let path = temp_path("vertex-highlight.prt");
-    prt_bake::vertex::bake_vertex(&scene, &[], &shading, &opts, &path, None).expect("bake");
+    let path = bake_per_vertex_f32(&scene, "vertex-highlight");
     let (w, h) = (64, 64);
     let mut r = VertexRelighter::open(&path).expect("open");
     r.set_size(w, h).expect("size");
