@@ -370,13 +370,22 @@ fn contribution(
     b: &[[f32; 3]],
     truth: &[[f32; 3]],
 ) -> Vec<RegionError> {
-    let (of_b, of_truth) = (regions.norms(b), regions.norms(truth));
-    regions
-        .errors(a, b)
+    over_truth(regions, regions.errors(a, b), b, truth)
+}
+
+/// `errors`, relative L2s taken over `of`'s magnitude per region, retaken over `truth`'s.
+fn over_truth(
+    regions: &Regions,
+    errors: Vec<RegionError>,
+    of: &[[f32; 3]],
+    truth: &[[f32; 3]],
+) -> Vec<RegionError> {
+    let (of_own, of_truth) = (regions.norms(of), regions.norms(truth));
+    errors
         .into_iter()
-        .zip(of_b.iter().zip(&of_truth))
-        .map(|(mut e, (nb, nt))| {
-            e.relative_l2 *= nb / nt;
+        .zip(of_own.iter().zip(&of_truth))
+        .map(|(mut e, (no, nt))| {
+            e.relative_l2 *= no / nt;
             e
         })
         .collect()
@@ -521,11 +530,7 @@ fn section(args: &BudgetArgs, regions: &Regions, settings: &[Setting], m: &Measu
         );
         let (split, one) = (&m.split[li], &m.direct_truths[li]);
         // The one-reflection truth's noise over the full truth's magnitude.
-        let (of_one, of_truth) = (regions.norms(&one.mean), regions.norms(&truth.mean));
-        let mut one_noise = one.noise.clone();
-        for (e, (n1, nt)) in one_noise.iter_mut().zip(of_one.iter().zip(&of_truth)) {
-            e.relative_l2 *= n1 / nt;
-        }
+        let one_noise = over_truth(regions, one.noise.clone(), &one.mean, &truth.mean);
         let reflected_truth = difference(&truth.mean, &one.mean);
         let mut share = regions.errors(&reflected_truth, &truth.mean);
         for e in &mut share {

@@ -455,18 +455,16 @@ impl VertexRelighter {
         };
         for (b, ws) in self.widths.iter().enumerate() {
             for w in ws {
-                {
-                    if light.widths_deg().get(w.cube) != Some(&f64::from(w.degrees)) {
-                        return Err(RuntimeError::VertexSchema {
-                            path: self.file.path().display().to_string(),
-                            reason: format!(
-                                "shading basis {b}: split width {} degrees does not match the \
-                                 light's prefiltered widths {:?}",
-                                w.degrees,
-                                light.widths_deg()
-                            ),
-                        });
-                    }
+                if light.widths_deg().get(w.cube) != Some(&f64::from(w.degrees)) {
+                    return Err(RuntimeError::VertexSchema {
+                        path: self.file.path().display().to_string(),
+                        reason: format!(
+                            "shading basis {b}: split width {} degrees does not match the \
+                             light's prefiltered widths {:?}",
+                            w.degrees,
+                            light.widths_deg()
+                        ),
+                    });
                 }
             }
         }
