@@ -71,8 +71,8 @@ struct Basis {
     u_o_pole_at: u32,
     refl_at: u32,
     refl_pole_at: u32,
-    // Per split width 8 floats: the prefiltered cube (bits of an i32, -1: the environment),
-    // then the 4 SH band factors.
+    // Per split width 8 floats: the prefiltered cube (bits of a u32; width 0 too), then the
+    // 4 SH band factors.
     widths_at: u32,
     pad: u32,
 }
@@ -638,13 +638,7 @@ fn shade(t: u32, bary: vec2<f32>) -> vec3<f32> {
     var prefiltered: array<vec3<f32>, 8>;
     for (var k = 0u; k < basis.n_widths; k = k + 1u) {
         let wat = basis.widths_at + 8u * k;
-        let cube = bitcast<i32>(tables[wat]);
-        var ibar = vec3<f32>(0.0);
-        if cube < 0 {
-            ibar = radiance(r_w);
-        } else {
-            ibar = cube_bilinear(u32(cube), pat);
-        }
+        let ibar = cube_bilinear(bitcast<u32>(tables[wat]), pat);
         let sh = tables[wat + 1u] * bands[0] + tables[wat + 2u] * bands[1]
             + tables[wat + 3u] * bands[2] + tables[wat + 4u] * bands[3];
         prefiltered[k] = visible * ibar + sh + i2;

@@ -188,8 +188,7 @@ impl VertexGpu {
                 let w = s.split_width(b, k).ok_or_else(|| {
                     GpuError::Unsupported(format!("shading basis {b} has no split width {k}"))
                 })?;
-                let cube = w.prefiltered.map_or(-1, |c| c as i32);
-                tables.push(f32::from_bits(cube as u32));
+                tables.push(f32::from_bits(w.prefiltered as u32));
                 tables.extend(w.sh_factors);
                 tables.extend([0.0; 3]);
             }

@@ -41,9 +41,9 @@ pub struct Stages {
 pub struct SplitWidth {
     /// The Gaussian's width in degrees.
     pub degrees: f32,
-    /// Which of [`VertexSurface::prefiltered`] its `Ibar_w` is read from; `None` for width 0,
-    /// which reads the environment map itself.
-    pub prefiltered: Option<usize>,
+    /// Which of [`VertexSurface::prefiltered`] its `Ibar_w` is read from (every width, 0 too:
+    /// `ShadingBasis::rendered_width_deg`).
+    pub prefiltered: usize,
     /// The normalized Gaussian's SH factor per band, applied to `I1`.
     pub sh_factors: [f32; SH_BANDS],
 }
@@ -374,7 +374,7 @@ impl<'a> VertexSurface<'a> {
         let w = self.r.widths.get(b)?.get(k)?;
         Some(SplitWidth {
             degrees: w.degrees,
-            prefiltered: Some(w.cube),
+            prefiltered: w.cube,
             sh_factors: w.sh_factors,
         })
     }
