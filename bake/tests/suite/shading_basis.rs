@@ -11,7 +11,7 @@ use prt_bake::basis::shading::{
 use prt_bake::basis::FamilySpec;
 use prt_bake::brdf::Family;
 use prt_bake::testing::albedo;
-use prt_formats::basis::{mirror, HemiGrid, ShadingBasis, TuckerRanks};
+use prt_formats::basis::{cosine_centroid, mirror, HemiGrid, ShadingBasis, TuckerRanks};
 use std::f64::consts::PI;
 use std::sync::OnceLock;
 
@@ -396,7 +396,11 @@ impl Measured {
 /// radiance, for every parameter, view and environment.
 fn measure(family: Family, params: &[f64]) -> Vec<Measured> {
     let b = default_basis(family);
-    let widths: Vec<f64> = b.split_widths_deg.iter().map(|&w| w as f64).collect();
+    // As rendered: width 0 is the grid cell's Gaussian (`ShadingBasis::rendered_width_deg`).
+    let widths: Vec<f64> = (0..b.n_widths())
+        .filter_map(|k| b.rendered_width_deg(k))
+        .map(f64::from)
+        .collect();
     let mut out = Vec::new();
     for env in [Env::Constant, Env::Linear, Env::Lobe] {
         // the reconstruction sees the environment rotated with the view
@@ -410,10 +414,14 @@ fn measure(family: Family, params: &[f64]) -> Vec<Measured> {
                     true_lobe(family, p, o.to_array(), i.to_array()) * env.radiance(i.to_array())
                 });
                 let wo_rot = rot_z(VIEW_AZIMUTH, wo);
-                let r = mirror(f32v(wo_rot)).map(|x| x as f64);
+                let r = mirror(f32v(wo_rot));
+                // Each width read where its Gaussian, weighted by the cosine, looks.
                 let ibar: Vec<f32> = widths
                     .iter()
-                    .map(|&w| prefiltered(env_rot, r, w) as f32)
+                    .map(|&w| {
+                        let c = cosine_centroid(r, w.to_radians() as f32);
+                        prefiltered(env_rot, c.map(f64::from), w) as f32
+                    })
                     .collect();
                 let (ours, clamped) = b.reflected(p as f32, f32v(wo_rot), &inc, &ibar);
                 assert!(!clamped, "{p} is inside the sampled range");
@@ -454,17 +462,22 @@ fn print_table(m: &[Measured]) {
 
 /// The bound of a measured error, relative to the true value. A constant environment (the
 /// directional albedo) within 3 % at every view; up to 45 degrees the linear environment
-/// within 4 % and the lobe within 12 %; at 70 to 88 degrees 25 % and 45 %. The grazing bounds
-/// are loose because the specular part takes the cosine as constant over its Gaussians
-/// (docs/brdf-basis.md, "Shading basis": measured, a cosine-weighted prefilter would remove
-/// most of it), not because the tables are inaccurate there: the albedo holds to 3 %.
+/// within 4 % and the lobe within 8 %. At 70 to 88 degrees: GGX 6 % and 20 %, Blinn-Phong 25 %
+/// and 32 %. Each width's light is read at its cosine-weighted centroid (`cosine_centroid`);
+/// read at the mirror direction, GGX at grazing views was up to 38 % too dark (the test fails
+/// so). What is left at grazing views is the truncated residual's: with the exact
+/// cosine-weighted average of each Gaussian instead of the centroid the figures barely move
+/// (docs/brdf-basis.md, "Shading basis").
 fn bound(x: &Measured) -> f64 {
-    match (x.env, x.view_deg <= 45.0) {
-        (Env::Constant, _) => 0.03,
-        (Env::Linear, true) => 0.04,
-        (Env::Lobe, true) => 0.12,
-        (Env::Linear, false) => 0.25,
-        (Env::Lobe, false) => 0.45,
+    let grazing = x.view_deg > 45.0;
+    match (x.env, grazing, x.family) {
+        (Env::Constant, _, _) => 0.03,
+        (Env::Linear, false, _) => 0.04,
+        (Env::Lobe, false, _) => 0.08,
+        (Env::Linear, true, Family::Ggx) => 0.06,
+        (Env::Lobe, true, Family::Ggx) => 0.20,
+        (Env::Linear, true, _) => 0.25,
+        (Env::Lobe, true, _) => 0.32,
     }
 }
 

@@ -51,6 +51,9 @@
 //! * `shading.rs`: the persisted Tucker shading basis [`ShadingBasis`] of the per-vertex mode
 //!   (residual lobe as a Tucker decomposition, specular split as reflectances), its validation
 //!   and evaluation.
+//! * `split_lookup.rs`: where a split Gaussian's prefiltered light is read
+//!   ([`cosine_centroid`]: the mirror direction raised by the cosine-weighted centroid's
+//!   tilt).
 
 mod brdf_basis;
 mod error;
@@ -58,6 +61,7 @@ mod eval;
 mod grid;
 mod hemigrid;
 mod shading;
+mod split_lookup;
 mod warp;
 
 pub use brdf_basis::BrdfBasis;
@@ -69,6 +73,7 @@ pub use shading::{
     mirror, ShadingBasis, TuckerRanks, MAX_SHADING_PARAMS, MAX_SHADING_RANK, MAX_SPLIT_WIDTHS,
     SHADING_SCHEMA_VERSION,
 };
+pub use split_lookup::{cosine_centroid, cosine_centroid_tilt};
 pub use warp::{ParamWarp, ParamWeights};
 
 /// Version of the [`BrdfBasis`] schema. Bump when the meaning or layout of a field changes.
