@@ -5,10 +5,12 @@
 //!
 //! The relighters' methods that take or give these are gated the same way:
 //! `set_kernel` (both kinds), `coefficients` (both), `PixelRelighter::time_reads`,
-//! `VertexRelighter::vertex_incident`, `VertexRelighter::prefilter_runs`.
+//! `VertexRelighter::vertex_incident`, `VertexRelighter::prefilter_runs`,
+//! `VertexRelighter::set_direct_light_only`, `VertexRelighter::set_true_lobe`.
 
 pub use crate::vertex::incident::VertexIncident;
 pub use crate::vertex::light::LightCoefficients;
+pub use crate::vertex::true_lobe::TrueLobe;
 
 /// Which inner loops a relighter runs. Both give bit-identical frames (the per-lane
 /// arithmetic is the same); the switch exists so tests and measurements can run the portable

@@ -23,6 +23,12 @@
 //!   - **direct light**: that bake relit with I1 and I2 off
 //!     (`VertexRelighter::set_direct_light_only`) against a second ground truth traced with
 //!     one reflection (the light seen directly, reflected once: I0 exactly);
+//!     It is split again: the **shading basis** (the Tucker residual, the specular split's
+//!     Gaussians and where they are read) by the same image with the true lobe at the last
+//!     reflection (`VertexRelighter::set_true_lobe`, the baker's lobes, 4096 stratified draws
+//!     of the lobe and as many of the map per pixel; its noise measured with a quarter of the
+//!     draws) against the same incident light; what is left of I0 (the 6x16x16
+//!     visibility, per-vertex interpolation, pixel centres) by that image against the truth;
 //!   - **reflected light**: the relit image less its direct part against the truth less its
 //!     one-reflection part (I1 and I2 against the light after two or more reflections);
 //!   - **pixel centres**: the relit image (one ray through each pixel's centre meets the
@@ -35,12 +41,17 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+use std::sync::Arc;
+
 use anyhow::{bail, Context as _, Result};
+use glam::{Vec2, Vec3};
+use prt_bake::brdf::{Family, Lobe as _};
 use prt_bake::config::BakeConfig;
 use prt_bake::metrics::{region_error, relative_l2, RegionError};
 use prt_bake::progress::Silent;
 use prt_bake::run::load;
 use prt_bake::scene::Scene;
+use prt_runtime::hooks::TrueLobe;
 
 use super::measure::{lit, map_intensity, reference, render, Light, Pixels, LIGHTS};
 use super::sweep::{self, Setting};
@@ -289,8 +300,14 @@ pub fn run(args: &BudgetArgs) -> Result<String> {
                 let supersampled = box_down(&render(&mut r, 2 * args.size)?.0, 2 * args.size);
                 r.set_direct_light_only(true);
                 let direct = render(&mut r, args.size)?.0;
+                r.set_true_lobe(Some((Arc::new(BakerLobe), TRUE_LOBE_SIDE)));
+                let direct_true_lobe = render(&mut r, args.size)?.0;
+                r.set_true_lobe(Some((Arc::new(BakerLobe), TRUE_LOBE_SIDE / 2)));
+                let direct_true_lobe_quarter = render(&mut r, args.size)?.0;
                 split.push(Split {
                     direct,
+                    direct_true_lobe,
+                    direct_true_lobe_quarter,
                     supersampled,
                 });
             }
@@ -321,8 +338,37 @@ pub fn run(args: &BudgetArgs) -> Result<String> {
 struct Split {
     /// I1 and I2 off.
     direct: Pixels,
+    /// I1 and I2 off, the true lobe at the last reflection.
+    direct_true_lobe: Pixels,
+    /// The same with a quarter of the draws (its difference measures the noise).
+    direct_true_lobe_quarter: Pixels,
     /// 2 x 2 per pixel, averaged.
     supersampled: Pixels,
+}
+
+/// Draws per side of the true lobe's stratified grids per pixel (`set_true_lobe`): 4096 of
+/// the lobe and 4096 of the map. The noise of that image is measured beside it: the same
+/// with a quarter of the draws differs from it by `sqrt(4 + 1)` times its own noise.
+const TRUE_LOBE_SIDE: u32 = 64;
+
+/// The baker's lobes (its sampler and evaluation) for the runtime's true-lobe switch.
+struct BakerLobe;
+
+impl TrueLobe for BakerLobe {
+    fn sample(&self, family: Family, param: f32, wo: [f32; 3], u: [f32; 2]) -> Option<[f32; 3]> {
+        let wo = Vec3::from(wo);
+        let h = family.sample_half(param, Vec2::from(u))?;
+        let wi = 2.0 * wo.dot(h) * h - wo;
+        (wi.z > 0.0).then(|| wi.to_array())
+    }
+
+    fn eval(&self, family: Family, param: f32, wo: [f32; 3], wi: [f32; 3]) -> (f32, f32) {
+        let (wo, wi) = (Vec3::from(wo), Vec3::from(wi));
+        (
+            family.specular_lobe(param, wo, wi) * wi.z.max(0.0),
+            family.lobe_pdf(param, wo, wi),
+        )
+    }
 }
 
 /// Everything a section reports: per light, the truths and the relit images.
@@ -431,8 +477,12 @@ fn section(args: &BudgetArgs, regions: &Regions, settings: &[Setting], m: &Measu
          camera rays). The indented rows split \"the rest\", each over the truth's magnitude \
          so that their squares add up to the rest's where they do not correlate: the direct \
          light (the relit image with I1 and I2 off) against a second truth traced with one \
-         reflection, the same number of renders and samples; the reflected light (each image \
-         less its direct part); the pixel centres (the relit image against the same relighter \
+         reflection, the same number of renders and samples, itself split into the shading \
+         basis (the direct light against the same with the true BRDF at the last reflection, \
+         4096 stratified draws of the lobe and as many of the map per pixel, combined by the \
+         balance heuristic, against the same incident light; its own noise measured beside it) and what is \
+         left of it (that image against the truth: visibility, interpolation, pixel centres); \
+         the reflected light (each image less its direct part); the pixel centres (the relit image against the same relighter \
          rendered 2 x 2 per pixel and averaged, as the reference's jittered rays average \
          silhouettes). Method: `bench/src/vertex/budget.rs`.\n",
         args.config.display(),
@@ -552,6 +602,33 @@ fn section(args: &BudgetArgs, regions: &Regions, settings: &[Setting], m: &Measu
             &mut s,
             "&nbsp; direct light (I0 alone vs the truth of one reflection)",
             &contribution(regions, &split.direct, &one.mean, &truth.mean),
+            true,
+        );
+        let mut lobe_noise = contribution(
+            regions,
+            &split.direct_true_lobe_quarter,
+            &split.direct_true_lobe,
+            &truth.mean,
+        );
+        for e in &mut lobe_noise {
+            e.relative_l2 /= 5f64.sqrt();
+        }
+        row(
+            &mut s,
+            "&nbsp; &nbsp; noise of I0 with the true BRDF (its draws' Monte Carlo error)",
+            &lobe_noise,
+            false,
+        );
+        row(
+            &mut s,
+            "&nbsp; &nbsp; shading basis (I0 vs I0 with the true BRDF at the last reflection)",
+            &contribution(regions, &split.direct, &split.direct_true_lobe, &truth.mean),
+            true,
+        );
+        row(
+            &mut s,
+            "&nbsp; &nbsp; the rest of I0 (I0 with the true BRDF vs the truth of one reflection)",
+            &contribution(regions, &split.direct_true_lobe, &one.mean, &truth.mean),
             true,
         );
         row(

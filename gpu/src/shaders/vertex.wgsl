@@ -72,7 +72,7 @@ struct Basis {
     refl_at: u32,
     refl_pole_at: u32,
     // Per split width 8 floats: the prefiltered cube (bits of a u32; width 0 too), then the
-    // 4 SH band factors.
+    // 4 SH band factors, then the Gaussian's spread in radians (`cosine_centroid`).
     widths_at: u32,
     pad: u32,
 }
@@ -283,6 +283,41 @@ fn wrapped_texel(n: u32, f: u32, i: i32, j: i32) -> vec3<u32> {
 fn cube_texel(c: u32, n: u32, f: u32, i: i32, j: i32) -> vec3<f32> {
     let k = wrapped_texel(n, f, i, j);
     return textureLoad(cubes, vec2<i32>(i32(k.y), i32(k.z)), i32(6u * c + k.x), 0).xyz;
+}
+
+// The standard normal distribution for t >= 0 (the runtime's `normal_cdf`: Abramowitz and
+// Stegun 7.1.26 for erf, the same coefficients).
+fn normal_cdf(t: f32) -> f32 {
+    let x = t * 0.70710677;
+    let k = 1.0 / (1.0 + 0.3275911 * x);
+    let poly = k * (0.2548296 + k * (-0.28449674 + k * (1.4214137 + k * (-1.453152 + k * 1.0614054))));
+    return 0.5 * (1.0 + (1.0 - poly * exp(-x * x)));
+}
+
+// Where a split Gaussian of spread sigma about the local mirror direction r is read: r raised
+// towards the normal by the cosine-weighted centroid's tilt (prt_formats::basis::
+// cosine_centroid, the same formula).
+fn cosine_centroid(r: vec3<f32>, sigma: f32) -> vec3<f32> {
+    let z = max(r.z, 0.0);
+    let h = sqrt(r.x * r.x + r.y * r.y);
+    if sigma <= 0.0 || h <= 1e-6 * z {
+        return r;
+    }
+    let t = z / (h * sigma);
+    let cdf = normal_cdf(t);
+    let pdf = exp(-0.5 * t * t) * 0.3989423;
+    let delta = sigma * cdf / (t * cdf + pdf);
+    if delta <= 0.0 {
+        return r;
+    }
+    let sd = sin(delta);
+    let cd = cos(delta);
+    let h2 = h * cd - z * sd;
+    if h2 <= 0.0 {
+        return vec3<f32>(0.0, 0.0, 1.0);
+    }
+    let k = h2 / h;
+    return vec3<f32>(r.x * k, r.y * k, z * cd + h * sd);
 }
 
 // The visible fraction in the visibility cube starting at byte `at`, texel (i, j) of face f
@@ -617,11 +652,6 @@ fn shade(t: u32, bary: vec2<f32>) -> vec3<f32> {
         let b_n = cross(n, t_n);
         r_sh = vec3<f32>(dot(t_n, r_w), dot(b_n, r_w), dot(n, r_w));
     }
-    let at = face_st(r_w);
-    // Visible fraction towards r, bilinear in the 16-cube, interpolated over the vertices.
-    let visible = w.x * visible_bilinear(index[frame.vertex_info_at + 2u * v0 + 1u], at)
-        + w.y * visible_bilinear(index[frame.vertex_info_at + 2u * v1 + 1u], at)
-        + w.z * visible_bilinear(index[frame.vertex_info_at + 2u * v2 + 1u], at);
     // I1's SH at r, summed per band.
     var y: array<f32, 16>;
     sh_eval(r_sh, &y);
@@ -630,14 +660,23 @@ fn shade(t: u32, bary: vec2<f32>) -> vec3<f32> {
         let l = sh_band(s);
         bands[l] = bands[l] + rec3(r0, r1, r2, w, I1_AT + 3u * s) * y[s];
     }
-    var pat = at;
-    if frame.turned != 0u {
-        pat = face_st(turn_back(r_w));
-    }
     let i2 = rec3(r0, r1, r2, w, I2_AT);
     var prefiltered: array<vec3<f32>, 8>;
     for (var k = 0u; k < basis.n_widths; k = k + 1u) {
         let wat = basis.widths_at + 8u * k;
+        // The environment and the visibility are read where the width's Gaussian, weighted
+        // by the cosine, looks: r raised towards the normal (`cosine_centroid`).
+        let c_l = cosine_centroid(r_l, tables[wat + 5u]);
+        let c_w = tangent * c_l.x + bitangent * c_l.y + ns * c_l.z;
+        let at = face_st(c_w);
+        // Visible fraction, bilinear in the 16-cube, interpolated over the vertices.
+        let visible = w.x * visible_bilinear(index[frame.vertex_info_at + 2u * v0 + 1u], at)
+            + w.y * visible_bilinear(index[frame.vertex_info_at + 2u * v1 + 1u], at)
+            + w.z * visible_bilinear(index[frame.vertex_info_at + 2u * v2 + 1u], at);
+        var pat = at;
+        if frame.turned != 0u {
+            pat = face_st(turn_back(c_w));
+        }
         let ibar = cube_bilinear(bitcast<u32>(tables[wat]), pat);
         let sh = tables[wat + 1u] * bands[0] + tables[wat + 2u] * bands[1]
             + tables[wat + 3u] * bands[2] + tables[wat + 4u] * bands[3];

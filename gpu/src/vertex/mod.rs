@@ -190,7 +190,7 @@ impl VertexGpu {
                 })?;
                 tables.push(f32::from_bits(w.prefiltered as u32));
                 tables.extend(w.sh_factors);
-                tables.extend([0.0; 3]);
+                tables.extend([w.sigma, 0.0, 0.0]);
             }
             if basis.n_widths() > 8 || basis.ranks.o > 32 || basis.ranks.i > 32 {
                 return Err(GpuError::Unsupported(format!(

@@ -37,6 +37,7 @@ mod raster;
 mod shade;
 #[cfg(feature = "gpu-surface")]
 pub(crate) mod surface;
+pub(crate) mod true_lobe;
 pub(crate) mod view;
 
 pub use view::RasterError;
@@ -127,6 +128,9 @@ pub struct VertexRelighter {
     /// `set_direct_light_only` sets it for the error budget, which compares it with a
     /// reference of one reflection.
     direct_light_only: bool,
+    /// The true lobe at the last reflection and its samples per pixel per side: the
+    /// measurement hook `set_true_lobe` sets it for the error budget (`true_lobe.rs`).
+    true_lobe: Option<(std::sync::Arc<dyn true_lobe::TrueLobe>, u32)>,
 }
 
 impl VertexRelighter {
@@ -181,6 +185,7 @@ impl VertexRelighter {
                     degrees: w,
                     cube: i,
                     sh_factors: f.map(|x| (x / k) as f32),
+                    sigma: sigma as f32,
                 });
             }
             widths.push(ws);
@@ -221,6 +226,7 @@ impl VertexRelighter {
             map_runs: 0,
             host_vertex_stages: true,
             direct_light_only: false,
+            true_lobe: None,
         })
     }
 
@@ -407,6 +413,12 @@ impl VertexRelighter {
         else {
             return Err(self.no_stage_result());
         };
+        // The true lobe's switch draws directions of the map too (built per frame: the
+        // budget's measurement, not a user's path).
+        let env_sampler = self
+            .true_lobe
+            .as_ref()
+            .and_then(|_| true_lobe::EnvSampler::new(self.lighting_map()));
         let inputs = ViewInputs {
             scene: &self.scene,
             shades: &shaded.groups,
@@ -423,6 +435,14 @@ impl VertexRelighter {
             eye: camera.position,
             background_samples: rays
                 .background_samples(self.lighting_map().width, self.lighting_map().height),
+            true_lobe: self
+                .true_lobe
+                .as_ref()
+                .map(|(lobe, side)| true_lobe::TrueLobeSwitch {
+                    lobe: lobe.as_ref(),
+                    side: *side,
+                    env: env_sampler.as_ref(),
+                }),
         };
         shade::view_stage(&inputs, &rays, &self.visibility, self.simd, out);
         Ok(RenderStats {
@@ -524,6 +544,20 @@ impl VertexRelighter {
             self.light = None;
             self.shaded = None;
         }
+    }
+
+    /// Shades the last reflection's specular part with the true lobe (`Some`: the caller's
+    /// sampler, `side x side` stratified draws per pixel) instead of the Tucker shading basis
+    /// and the specular split, against the same incident light (the environment through the
+    /// vertices' visibility cubes, I1's SH, I2): the error budget's measure of the shading
+    /// basis. `None` goes back to the basis. Only this relighter's (CPU) view stage changes;
+    /// a GPU backend's frames do not.
+    #[cfg(feature = "hooks")]
+    pub fn set_true_lobe(
+        &mut self,
+        lobe: Option<(std::sync::Arc<dyn crate::hooks::TrueLobe>, u32)>,
+    ) {
+        self.true_lobe = lobe;
     }
 
     /// How many times the environment's prefilter has run (once per map: a turn or an

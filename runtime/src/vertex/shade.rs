@@ -18,12 +18,13 @@
 //! - `B = Kd tex / pi E + Ks [ sum_bc M[b][c] U^o(wo, b) U[c] + sum_w R_w(p, wo) S_w ]` for a
 //!   material with a shading basis (`M` the core contracted with `U^h(p)`, `R_w` the split's
 //!   reflectances), `Kd tex / pi E` otherwise; per colour channel;
-//! - `S_w = V(r) Ibar_w(r) + sum_s g_w[band(s)] I1[s] Y_s(r_local) + I2` at the mirror
+//! - `S_w = V(c_w) Ibar_w(c_w) + sum_s g_w[band(s)] I1[s] Y_s(r_local) + I2` about the mirror
 //!   direction `r`: `Ibar_w` the environment seen through the normalized Gaussian of width w
-//!   (width 0: the environment itself, bilinear in the lat-long map), `V(r)` the vertices'
-//!   visible fraction towards `r` (the 6x16x16 cube bilinear between texel centres and across
-//!   face edges, interpolated over the vertices), `g_w` the normalized
-//!   Gaussian's per-band SH factors (1 at width 0).
+//!   (width 0 too: a cell's Gaussian, `ShadingBasis::rendered_width_deg`), read at the
+//!   Gaussian's cosine-weighted centroid `c_w` (`cosine_centroid`: `r` raised towards the
+//!   normal; at `r` a grazing view was too dark), `V(c_w)` the vertices' visible fraction there
+//!   (the 6x16x16 cube bilinear between texel centres and across face edges, interpolated over
+//!   the vertices), `g_w` the normalized Gaussian's per-band SH factors, read at `r`.
 //!
 //! This is `ShadingBasis::reflected` for the three channels at once (the parameter and `wo`
 //! rows are evaluated once per pixel instead of once per channel; a unit test checks the two
@@ -31,7 +32,9 @@
 
 use std::ops::Range;
 
-use prt_formats::basis::{mirror, HemiWeights, ShadingBasis, MAX_SHADING_RANK, MAX_SPLIT_WIDTHS};
+use prt_formats::basis::{
+    cosine_centroid, mirror, HemiWeights, ShadingBasis, MAX_SHADING_RANK, MAX_SPLIT_WIDTHS,
+};
 use prt_formats::envmap::LatLongMap;
 use prt_formats::latlong;
 use prt_formats::lighting::cubemap::{bilinear_taps, direction_to_face_st};
@@ -48,6 +51,7 @@ use super::incident::{GroupShade, E_AT, I1_AT, I2_AT, U_AT};
 use super::light::LightCoefficients;
 use super::open::Scene;
 use super::raster::{Fragment, VisibilityBuffer};
+use super::true_lobe::TrueLobeSwitch;
 use super::view::ViewRays;
 use crate::error::RuntimeError;
 
@@ -64,6 +68,9 @@ pub(super) struct Width {
     pub cube: usize,
     /// `g_w[l]`: the normalized Gaussian's SH factor of band l.
     pub sh_factors: [f32; SH_BANDS],
+    /// The rendered Gaussian's spread in radians (`ShadingBasis::rendered_width_deg`), which
+    /// sets where its light is read (`cosine_centroid`).
+    pub sigma: f32,
 }
 
 /// A material's lobe at its current parameter.
@@ -274,6 +281,8 @@ pub(super) struct ViewInputs<'a> {
     pub eye: [f32; 3],
     /// Sub-samples per side of a background pixel (`view::background_samples`).
     pub background_samples: u32,
+    /// The budget's switch to the true lobe at the last reflection (`true_lobe.rs`).
+    pub true_lobe: Option<TrueLobeSwitch<'a>>,
 }
 
 /// Shades every pixel of `vis` into `out` (RGB rows, top row first), rows in parallel; `simd`
@@ -477,21 +486,6 @@ impl ViewInputs<'_> {
                 to_local(t, b, n, r_w)
             }
         };
-        // Its cube-face coordinates, shared by the visibility texel and every prefiltered cube.
-        let (face, fs, ft) = direction_to_face_st(r_w.map(f64::from));
-        // Visible fraction towards r: the 16-cube bilinear between texel centres, across face
-        // edges as the prefiltered cubes are (nearest texels drew a nearby object's reflection
-        // as a staircase of texel-sized blocks), interpolated over the vertices.
-        let vis_taps = bilinear_taps(VISIBILITY_CUBE, face, fs, ft);
-        let rows = &self.file_bytes[self.cache.visibility[g].clone()];
-        let per_vertex = 6 * VISIBILITY_CUBE * VISIBILITY_CUBE;
-        let visible: f32 = (0..3)
-            .map(|k| {
-                let row = &rows[local[k] * per_vertex..][..per_vertex];
-                let v: f64 = vis_taps.iter().map(|&(t, tw)| tw * f64::from(row[t])).sum();
-                w[k] * (v / 255.0) as f32
-            })
-            .sum();
         // I1's SH at r, summed per band.
         let y = sh_eval_f32(r_sh);
         let mut bands = [[0.0f32; 3]; SH_BANDS];
@@ -501,14 +495,96 @@ impl ViewInputs<'_> {
                 band[c] += rec[I1_AT + 3 * sidx + c] * ys;
             }
         }
-        let (pface, ps, pt) = self.environment.prefiltered_at(r_w, (face, fs, ft));
+        let rows = &self.file_bytes[self.cache.visibility[g].clone()];
+        let per_vertex = 6 * VISIBILITY_CUBE * VISIBILITY_CUBE;
         let mut prefiltered = [[0.0f32; 3]; MAX_SPLIT_WIDTHS];
         for (pw, wd) in prefiltered.iter_mut().zip(widths) {
+            // The environment and the visibility are read where the width's Gaussian, weighted
+            // by the cosine, looks: r raised towards the normal (`cosine_centroid`).
+            let c_l = cosine_centroid(r_l, wd.sigma);
+            let c_w: [f32; 3] = std::array::from_fn(|i| {
+                tangent[i] * c_l[0] + bitangent[i] * c_l[1] + ns[i] * c_l[2]
+            });
+            let (face, fs, ft) = direction_to_face_st(c_w.map(f64::from));
+            // Visible fraction: the 16-cube bilinear between texel centres, across face edges
+            // as the prefiltered cubes are (nearest texels drew a nearby object's reflection
+            // as a staircase of texel-sized blocks), interpolated over the vertices.
+            let vis_taps = bilinear_taps(VISIBILITY_CUBE, face, fs, ft);
+            let visible: f32 = (0..3)
+                .map(|k| {
+                    let row = &rows[local[k] * per_vertex..][..per_vertex];
+                    let v: f64 = vis_taps.iter().map(|&(t, tw)| tw * f64::from(row[t])).sum();
+                    w[k] * (v / 255.0) as f32
+                })
+                .sum();
+            let (pface, ps, pt) = self.environment.prefiltered_at(c_w, (face, fs, ft));
             let ibar = self.light.prefiltered[wd.cube].lookup_bilinear_face_st(pface, ps, pt);
             for c in 0..3 {
                 let sh: f32 = (0..SH_BANDS).map(|l| wd.sh_factors[l] * bands[l][c]).sum();
                 pw[c] = visible * ibar[c] + sh + rec[I2_AT + c];
             }
+        }
+        if let Some(switch) = &self.true_lobe {
+            // The same incident light as the basis sees, per direction.
+            let incident = |wi_l: [f32; 3]| -> [f32; 3] {
+                let wi_w: [f32; 3] = std::array::from_fn(|i| {
+                    tangent[i] * wi_l[0] + bitangent[i] * wi_l[1] + ns[i] * wi_l[2]
+                });
+                let (face, fs, ft) = direction_to_face_st(wi_w.map(f64::from));
+                let vis_taps = bilinear_taps(VISIBILITY_CUBE, face, fs, ft);
+                let visible: f32 = (0..3)
+                    .map(|k| {
+                        let row = &rows[local[k] * per_vertex..][..per_vertex];
+                        let v: f64 = vis_taps.iter().map(|&(t, tw)| tw * f64::from(row[t])).sum();
+                        w[k] * (v / 255.0) as f32
+                    })
+                    .sum();
+                let env = self.environment.radiance(wi_w);
+                let wi_sh = match bent {
+                    None => wi_l,
+                    Some(_) => {
+                        let (t, b) = vertex_frame(n);
+                        to_local(t, b, n, wi_w)
+                    }
+                };
+                let y = sh_eval_f32(wi_sh);
+                std::array::from_fn(|c| {
+                    let sh: f32 = (0..SH_COUNT).map(|k| rec[I1_AT + 3 * k + c] * y[k]).sum();
+                    visible * env[c] + sh + rec[I2_AT + c]
+                })
+            };
+            let seed = p
+                .iter()
+                .fold(t as u32, |h, x| h.rotate_left(7) ^ x.to_bits());
+            let back = &self.environment.back;
+            let to_map = |wi_l: [f32; 3]| -> [f32; 3] {
+                let d: [f64; 3] = std::array::from_fn(|i| {
+                    f64::from(tangent[i] * wi_l[0] + bitangent[i] * wi_l[1] + ns[i] * wi_l[2])
+                });
+                std::array::from_fn(|i| {
+                    (back[i][0] * d[0] + back[i][1] * d[1] + back[i][2] * d[2]) as f32
+                })
+            };
+            let from_map = |m: [f32; 3]| -> [f32; 3] {
+                let m = m.map(f64::from);
+                // `back` is a rotation: its transpose turns the map's frame into the world's.
+                let d: [f32; 3] = std::array::from_fn(|i| {
+                    (back[0][i] * m[0] + back[1][i] * m[1] + back[2][i] * m[2]) as f32
+                });
+                to_local(tangent, bitangent, ns, d)
+            };
+            let spec = switch.reflected(
+                (basis.family, lobe.param),
+                wo_l,
+                seed,
+                incident,
+                to_map,
+                from_map,
+            );
+            for c in 0..3 {
+                b[c] += material.ks[c] * spec[c];
+            }
+            return b.map(|v| v.max(0.0));
         }
         let incident = &rec[U_AT..U_AT + 3 * basis.ranks.i];
         let spec = reflected_rgb_with(

@@ -46,6 +46,9 @@ pub struct SplitWidth {
     pub prefiltered: usize,
     /// The normalized Gaussian's SH factor per band, applied to `I1`.
     pub sh_factors: [f32; SH_BANDS],
+    /// The rendered Gaussian's spread in radians: its light is read at
+    /// `prt_formats::basis::cosine_centroid(r, sigma)`, not at the mirror direction `r`.
+    pub sigma: f32,
 }
 
 /// A material's lobe at its current parameter, as the view stage reads it.
@@ -376,6 +379,7 @@ impl<'a> VertexSurface<'a> {
             degrees: w.degrees,
             prefiltered: w.cube,
             sh_factors: w.sh_factors,
+            sigma: w.sigma,
         })
     }
 

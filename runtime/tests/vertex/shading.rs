@@ -2,6 +2,7 @@
 //! constant environment, diffuse, glossy with hand-made shading bases, textured; the
 //! background; the side without data.
 
+use prt_formats::basis::cosine_centroid;
 use prt_formats::lighting::cubemap::{
     direction_to_face_st, direction_to_texel, face_ab_to_vector, texel_index,
 };
@@ -203,11 +204,22 @@ fn glossy_shading_follows_the_view_and_the_mirror_directions_visibility() {
             Face::PosY => seen_visible += 1,
             _ => seen_hidden += 1,
         }
-        // Bilinear between texel centres: within half a texel of a face edge the faces blend.
-        let v = visibility_at(VISIBILITY_CUBE, r_w, |t| {
-            face_visibility(t / per_face) as f64 / 255.0
-        });
-        let split: f64 = rw[..4].iter().map(|&x| x as f64).sum::<f64>() * v;
+        // Each width's visibility is read at its cosine-weighted centroid (the mirror
+        // direction raised towards the normal), bilinear between texel centres: within half a
+        // texel of a face edge the faces blend.
+        let r_l = [-wo_l[0], -wo_l[1], wo_l[2]];
+        let split: f64 = (0..4)
+            .map(|k| {
+                let sigma = basis.rendered_width_deg(k).expect("width").to_radians();
+                let c = cosine_centroid(r_l, sigma);
+                let c_w: [f64; 3] =
+                    std::array::from_fn(|i| f64::from(t[i] * c[0] + b[i] * c[1] + UP[i] * c[2]));
+                let v = visibility_at(VISIBILITY_CUBE, c_w, |t| {
+                    face_visibility(t / per_face) as f64 / 255.0
+                });
+                rw[k] as f64 * v
+            })
+            .sum();
         let want: [f64; 3] = std::array::from_fn(|c| {
             let l = L[c] as f64;
             let spec = a as f64 * uo[0] as f64 * e * l + split * l;
