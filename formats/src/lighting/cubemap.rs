@@ -107,6 +107,7 @@ pub fn face_st_to_direction(face: Face, s: f64, t: f64) -> [f64; 3] {
 /// Directions on a face edge (two or three components of equal magnitude) go to the face of
 /// the first such axis in the order X, Y, Z, so the result is deterministic. A zero or
 /// non-finite vector gives the centre of +X, `(Face::PosX, 0.5, 0.5)`.
+#[inline]
 pub fn direction_to_face_st(d: [f64; 3]) -> (Face, f64, f64) {
     let [x, y, z] = d;
     let (ax, ay, az) = (x.abs(), y.abs(), z.abs());

@@ -285,13 +285,13 @@ fn cube_texel(c: u32, n: u32, f: u32, i: i32, j: i32) -> vec3<f32> {
     return textureLoad(cubes, vec2<i32>(i32(k.y), i32(k.z)), i32(6u * c + k.x), 0).xyz;
 }
 
-// The standard normal distribution for t >= 0 (the runtime's `normal_cdf`: Abramowitz and
-// Stegun 7.1.26 for erf, the same coefficients).
-fn normal_cdf(t: f32) -> f32 {
+// The standard normal distribution for t >= 0 given g = exp(-t^2 / 2) (the runtime's
+// `normal_cdf`: Abramowitz and Stegun 7.1.26 for erf, the same coefficients).
+fn normal_cdf(t: f32, g: f32) -> f32 {
     let x = t * 0.70710677;
     let k = 1.0 / (1.0 + 0.3275911 * x);
     let poly = k * (0.2548296 + k * (-0.28449674 + k * (1.4214137 + k * (-1.453152 + k * 1.0614054))));
-    return 0.5 * (1.0 + (1.0 - poly * exp(-x * x)));
+    return 0.5 * (1.0 + (1.0 - poly * g));
 }
 
 // Where a split Gaussian of spread sigma about the local mirror direction r is read: r raised
@@ -304,9 +304,12 @@ fn cosine_centroid(r: vec3<f32>, sigma: f32) -> vec3<f32> {
         return r;
     }
     let t = z / (h * sigma);
-    let cdf = normal_cdf(t);
-    let pdf = exp(-0.5 * t * t) * 0.3989423;
-    let delta = sigma * cdf / (t * cdf + pdf);
+    var delta = sigma / t;
+    if t <= 12.0 {
+        let g = exp(-0.5 * t * t);
+        let cdf = normal_cdf(t, g);
+        delta = sigma * cdf / (t * cdf + g * 0.3989423);
+    }
     if delta <= 0.0 {
         return r;
     }

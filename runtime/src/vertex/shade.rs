@@ -497,15 +497,25 @@ impl ViewInputs<'_> {
         }
         let rows = &self.file_bytes[self.cache.visibility[g].clone()];
         let per_vertex = 6 * VISIBILITY_CUBE * VISIBILITY_CUBE;
+        // U^o(wo) and the split reflectances share wo's grid weights.
+        let dw = basis.dir_weights(wo_l);
+        let rw = split_reflectances(basis, taps, &dw);
         let mut prefiltered = [[0.0f32; 3]; MAX_SPLIT_WIDTHS];
-        for (pw, wd) in prefiltered.iter_mut().zip(widths) {
+        for ((pw, wd), &r) in prefiltered.iter_mut().zip(widths).zip(&rw) {
+            // A width this lobe does not reflect through (the fit leaves most at 0 for a
+            // given parameter) needs no light: its term is 0 whatever is read.
+            if r == 0.0 {
+                continue;
+            }
             // The environment and the visibility are read where the width's Gaussian, weighted
             // by the cosine, looks: r raised towards the normal (`cosine_centroid`).
             let c_l = cosine_centroid(r_l, wd.sigma);
             let c_w: [f32; 3] = std::array::from_fn(|i| {
                 tangent[i] * c_l[0] + bitangent[i] * c_l[1] + ns[i] * c_l[2]
             });
-            let (face, fs, ft) = direction_to_face_st(c_w.map(f64::from));
+            // (Written out, not `map`: in this loop the array method was left uninlined.)
+            let (face, fs, ft) =
+                direction_to_face_st([f64::from(c_w[0]), f64::from(c_w[1]), f64::from(c_w[2])]);
             // Visible fraction: the 16-cube bilinear between texel centres, across face edges
             // as the prefiltered cubes are (nearest texels drew a nearby object's reflection
             // as a staircase of texel-sized blocks), interpolated over the vertices.
@@ -590,8 +600,8 @@ impl ViewInputs<'_> {
         let spec = reflected_rgb_with(
             basis,
             &lobe.core,
-            taps,
-            basis.dir_weights(wo_l),
+            &dw,
+            &rw,
             incident,
             &prefiltered[..widths.len()],
         );
@@ -648,31 +658,19 @@ fn reflected_rgb(
     prefiltered: &[[f32; 3]],
 ) -> [f32; 3] {
     let taps = ParamTaps::new(basis, lobe.param);
-    reflected_rgb_with(
-        basis,
-        &lobe.core,
-        &taps,
-        basis.dir_weights(wo),
-        incident,
-        prefiltered,
-    )
+    let dw = basis.dir_weights(wo);
+    let rw = split_reflectances(basis, &taps, &dw);
+    reflected_rgb_with(basis, &lobe.core, &dw, &rw, incident, prefiltered)
 }
 
-/// [`reflected_rgb`] with the lobe's parameter taps and `wo`'s grid weights found by the
-/// caller (the weights serve both `U^o(wo)` and the split reflectances).
+/// The split's reflectances `R_w(p, wo)` (`ShadingBasis::reflectances_into`) with the lobe's
+/// parameter taps and `wo`'s grid weights found by the caller.
 #[inline(always)]
-fn reflected_rgb_with(
+fn split_reflectances(
     basis: &ShadingBasis,
-    core: &[f32],
     taps: &ParamTaps,
-    dw: HemiWeights,
-    incident: &[f32],
-    prefiltered: &[[f32; 3]],
-) -> [f32; 3] {
-    let (ro, ri) = (basis.ranks.o, basis.ranks.i);
-    let mut uo = [0.0f32; MAX_SHADING_RANK];
-    dw.interpolate(&basis.u_o, &basis.u_o_pole, ro, &mut uo);
-    // `ShadingBasis::reflectances_into` with the taps found once.
+    dw: &HemiWeights,
+) -> [f32; MAX_SPLIT_WIDTHS] {
     let nw = basis.n_widths();
     let slab = basis.n_dirs() * nw;
     let mut rw = [0.0f32; MAX_SPLIT_WIDTHS];
@@ -686,6 +684,24 @@ fn reflected_rgb_with(
             &mut rw,
         );
     }
+    rw
+}
+
+/// [`reflected_rgb`] with `wo`'s grid weights and the split reflectances (`rw`, from
+/// [`split_reflectances`]) found by the caller.
+#[inline(always)]
+fn reflected_rgb_with(
+    basis: &ShadingBasis,
+    core: &[f32],
+    dw: &HemiWeights,
+    rw: &[f32; MAX_SPLIT_WIDTHS],
+    incident: &[f32],
+    prefiltered: &[[f32; 3]],
+) -> [f32; 3] {
+    let (ro, ri) = (basis.ranks.o, basis.ranks.i);
+    let mut uo = [0.0f32; MAX_SHADING_RANK];
+    dw.interpolate(&basis.u_o, &basis.u_o_pole, ro, &mut uo);
+    let nw = basis.n_widths();
     let mut out = [0.0f32; 3];
     for (bo, &u) in uo[..ro].iter().enumerate() {
         let row = &core[bo * ri..(bo + 1) * ri];
