@@ -9,7 +9,7 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use prt_runtime::VertexRelighter;
 
 #[allow(dead_code)]
-#[path = "vertex/common.rs"]
+#[path = "vertex/common/mod.rs"]
 mod common;
 use common::*;
 
