@@ -474,90 +474,41 @@ impl ViewInputs<'_> {
         }
         let basis = &s.shading[lobe.basis];
         let widths = &self.widths[lobe.basis];
-        // The mirror direction, local and world.
-        let r_l = mirror(wo_l);
-        let r_w: [f32; 3] =
-            std::array::from_fn(|i| tangent[i] * r_l[0] + bitangent[i] * r_l[1] + ns[i] * r_l[2]);
-        // I1's SH is in the frame of the data's normal `n`.
-        let r_sh = match bent {
-            None => r_l,
-            Some(_) => {
-                let (t, b) = vertex_frame(n);
-                to_local(t, b, n, r_w)
-            }
+        // Local directions (about `ns`) into the world, and into the frame of the data's
+        // normal `n`, where I1's SH is (the same frame when no normal map bends `n`).
+        let to_world = |l: [f32; 3]| -> [f32; 3] {
+            std::array::from_fn(|i| tangent[i] * l[0] + bitangent[i] * l[1] + ns[i] * l[2])
         };
-        // I1's SH at r, summed per band.
-        let y = sh_eval_f32(r_sh);
-        let mut bands = [[0.0f32; 3]; SH_BANDS];
-        for (sidx, ys) in y.iter().enumerate().take(SH_COUNT) {
-            let band = &mut bands[sh_band(sidx)];
-            for c in 0..3 {
-                band[c] += rec[I1_AT + 3 * sidx + c] * ys;
-            }
-        }
+        let data_frame = bent.map(|_| vertex_frame(n));
+        let to_sh_frame = |l: [f32; 3], world: [f32; 3]| match data_frame {
+            None => l,
+            Some((t, b)) => to_local(t, b, n, world),
+        };
+        // Visible fraction at `(face, s, t)`: the 16-cube bilinear between texel centres,
+        // across face edges as the prefiltered cubes are (nearest texels drew a nearby
+        // object's reflection as a staircase of texel-sized blocks), interpolated over the
+        // vertices.
         let rows = &self.file_bytes[self.cache.visibility[g].clone()];
         let per_vertex = 6 * VISIBILITY_CUBE * VISIBILITY_CUBE;
-        // U^o(wo) and the split reflectances share wo's grid weights.
-        let dw = basis.dir_weights(wo_l);
-        let rw = split_reflectances(basis, taps, &dw);
-        let mut prefiltered = [[0.0f32; 3]; MAX_SPLIT_WIDTHS];
-        for ((pw, wd), &r) in prefiltered.iter_mut().zip(widths).zip(&rw) {
-            // A width this lobe does not reflect through (the fit leaves most at 0 for a
-            // given parameter) needs no light: its term is 0 whatever is read.
-            if r == 0.0 {
-                continue;
-            }
-            // The environment and the visibility are read where the width's Gaussian, weighted
-            // by the cosine, looks: r raised towards the normal (`cosine_centroid`).
-            let c_l = cosine_centroid(r_l, wd.sigma);
-            let c_w: [f32; 3] = std::array::from_fn(|i| {
-                tangent[i] * c_l[0] + bitangent[i] * c_l[1] + ns[i] * c_l[2]
-            });
-            // (Written out, not `map`: in this loop the array method was left uninlined.)
-            let (face, fs, ft) =
-                direction_to_face_st([f64::from(c_w[0]), f64::from(c_w[1]), f64::from(c_w[2])]);
-            // Visible fraction: the 16-cube bilinear between texel centres, across face edges
-            // as the prefiltered cubes are (nearest texels drew a nearby object's reflection
-            // as a staircase of texel-sized blocks), interpolated over the vertices.
+        let visible_at = |face: Face, fs: f64, ft: f64| -> f32 {
             let vis_taps = bilinear_taps(VISIBILITY_CUBE, face, fs, ft);
-            let visible: f32 = (0..3)
+            (0..3)
                 .map(|k| {
                     let row = &rows[local[k] * per_vertex..][..per_vertex];
                     let v: f64 = vis_taps.iter().map(|&(t, tw)| tw * f64::from(row[t])).sum();
                     w[k] * (v / 255.0) as f32
                 })
-                .sum();
-            let (pface, ps, pt) = self.environment.prefiltered_at(c_w, (face, fs, ft));
-            let ibar = self.light.prefiltered[wd.cube].lookup_bilinear_face_st(pface, ps, pt);
-            for c in 0..3 {
-                let sh: f32 = (0..SH_BANDS).map(|l| wd.sh_factors[l] * bands[l][c]).sum();
-                pw[c] = visible * ibar[c] + sh + rec[I2_AT + c];
-            }
-        }
+                .sum()
+        };
         if let Some(switch) = &self.true_lobe {
-            // The same incident light as the basis sees, per direction.
+            // The budget's switch: the true lobe against the same incident light as the basis
+            // sees, per direction (`true_lobe.rs`).
             let incident = |wi_l: [f32; 3]| -> [f32; 3] {
-                let wi_w: [f32; 3] = std::array::from_fn(|i| {
-                    tangent[i] * wi_l[0] + bitangent[i] * wi_l[1] + ns[i] * wi_l[2]
-                });
+                let wi_w = to_world(wi_l);
                 let (face, fs, ft) = direction_to_face_st(wi_w.map(f64::from));
-                let vis_taps = bilinear_taps(VISIBILITY_CUBE, face, fs, ft);
-                let visible: f32 = (0..3)
-                    .map(|k| {
-                        let row = &rows[local[k] * per_vertex..][..per_vertex];
-                        let v: f64 = vis_taps.iter().map(|&(t, tw)| tw * f64::from(row[t])).sum();
-                        w[k] * (v / 255.0) as f32
-                    })
-                    .sum();
+                let visible = visible_at(face, fs, ft);
                 let env = self.environment.radiance(wi_w);
-                let wi_sh = match bent {
-                    None => wi_l,
-                    Some(_) => {
-                        let (t, b) = vertex_frame(n);
-                        to_local(t, b, n, wi_w)
-                    }
-                };
-                let y = sh_eval_f32(wi_sh);
+                let y = sh_eval_f32(to_sh_frame(wi_l, wi_w));
                 std::array::from_fn(|c| {
                     let sh: f32 = (0..SH_COUNT).map(|k| rec[I1_AT + 3 * k + c] * y[k]).sum();
                     visible * env[c] + sh + rec[I2_AT + c]
@@ -568,9 +519,7 @@ impl ViewInputs<'_> {
                 .fold(t as u32, |h, x| h.rotate_left(7) ^ x.to_bits());
             let back = &self.environment.back;
             let to_map = |wi_l: [f32; 3]| -> [f32; 3] {
-                let d: [f64; 3] = std::array::from_fn(|i| {
-                    f64::from(tangent[i] * wi_l[0] + bitangent[i] * wi_l[1] + ns[i] * wi_l[2])
-                });
+                let d = to_world(wi_l).map(f64::from);
                 std::array::from_fn(|i| {
                     (back[i][0] * d[0] + back[i][1] * d[1] + back[i][2] * d[2]) as f32
                 })
@@ -595,6 +544,40 @@ impl ViewInputs<'_> {
                 b[c] += material.ks[c] * spec[c];
             }
             return b.map(|v| v.max(0.0));
+        }
+        // The mirror direction; I1's SH at it, summed per band.
+        let r_l = mirror(wo_l);
+        let y = sh_eval_f32(to_sh_frame(r_l, to_world(r_l)));
+        let mut bands = [[0.0f32; 3]; SH_BANDS];
+        for (sidx, ys) in y.iter().enumerate().take(SH_COUNT) {
+            let band = &mut bands[sh_band(sidx)];
+            for c in 0..3 {
+                band[c] += rec[I1_AT + 3 * sidx + c] * ys;
+            }
+        }
+        // U^o(wo) and the split reflectances share wo's grid weights.
+        let dw = basis.dir_weights(wo_l);
+        let rw = split_reflectances(basis, taps, &dw);
+        let mut prefiltered = [[0.0f32; 3]; MAX_SPLIT_WIDTHS];
+        for ((pw, wd), &r) in prefiltered.iter_mut().zip(widths).zip(&rw) {
+            // A width this lobe does not reflect through (the fit leaves most at 0 for a
+            // given parameter) needs no light: its term is 0 whatever is read.
+            if r == 0.0 {
+                continue;
+            }
+            // The environment and the visibility are read where the width's Gaussian, weighted
+            // by the cosine, looks: r raised towards the normal (`cosine_centroid`).
+            let c_w = to_world(cosine_centroid(r_l, wd.sigma));
+            // (Written out, not `map`: in this loop the array method was left uninlined.)
+            let (face, fs, ft) =
+                direction_to_face_st([f64::from(c_w[0]), f64::from(c_w[1]), f64::from(c_w[2])]);
+            let visible = visible_at(face, fs, ft);
+            let (pface, ps, pt) = self.environment.prefiltered_at(c_w, (face, fs, ft));
+            let ibar = self.light.prefiltered[wd.cube].lookup_bilinear_face_st(pface, ps, pt);
+            for c in 0..3 {
+                let sh: f32 = (0..SH_BANDS).map(|l| wd.sh_factors[l] * bands[l][c]).sum();
+                pw[c] = visible * ibar[c] + sh + rec[I2_AT + c];
+            }
         }
         let incident = &rec[U_AT..U_AT + 3 * basis.ranks.i];
         let spec = reflected_rgb_with(
