@@ -8,6 +8,7 @@
 //!   default, as is loading environment maps from files; without it the crate links no image
 //!   codecs).
 //! * [`latlong`]: the lat-long (equirectangular) environment mapping, uv <-> direction.
+//! * [`lobe`]: the families' specular lobes (the baker's and the runtime's formulas).
 //! * [`lighting`]: the lighting bases of the per-vertex mode (cube maps, Haar wavelets,
 //!   spherical harmonics, the Gaussian prefilter).
 //! * [`normal_map`]: tangent-space normal maps (the bent shading normal every part uses).
@@ -29,6 +30,7 @@ pub mod family;
 pub mod image_io;
 pub mod latlong;
 pub mod lighting;
+pub mod lobe;
 pub mod normal_map;
 pub mod overrides;
 pub mod pixel;

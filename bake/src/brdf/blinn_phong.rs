@@ -4,15 +4,8 @@
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
 
-/// `(s + 2) / (2 pi) cos^s(theta_h)`, computed as `exp(s ln cos)` so very large s cannot
-/// overflow.
-#[inline]
-pub fn lobe(s: f32, cos_h: f32) -> f32 {
-    if cos_h <= 0.0 {
-        return if s == 0.0 { 1.0 / PI } else { 0.0 };
-    }
-    (s + 2.0) * (0.5 * FRAC_1_PI) * (s * cos_h.ln()).exp()
-}
+// The lobe itself is shared with the runtime (which shades compact lights with it).
+pub use prt_formats::lobe::blinn_phong::lobe;
 
 /// Density over the half vector's solid angle of [`sample_half`]: `(s + 1) / (2 pi) cos^s`.
 #[inline]

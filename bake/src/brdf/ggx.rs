@@ -5,35 +5,8 @@
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
-/// Trowbridge-Reitz normal distribution, in a form that stays finite for tiny alpha:
-/// `alpha^2 / (pi ((alpha^2 - 1) cos^2 + 1)^2) = alpha^2 / (pi (alpha^2 cos^2 + sin^2)^2)`.
-#[inline]
-pub fn d(alpha: f32, cos_h: f32) -> f32 {
-    let a2 = alpha * alpha;
-    let c2 = cos_h * cos_h;
-    let s2 = (1.0 - c2).max(0.0);
-    let denom = a2 * c2 + s2;
-    if denom <= 0.0 {
-        return 0.0;
-    }
-    a2 / (PI * denom * denom)
-}
-
-/// Separable Smith masking term.
-#[inline]
-pub fn smith_g1(alpha: f32, cos_v: f32) -> f32 {
-    if cos_v <= 0.0 {
-        return 0.0;
-    }
-    let a2 = alpha * alpha;
-    2.0 * cos_v / (cos_v + (a2 + (1.0 - a2) * cos_v * cos_v).sqrt())
-}
-
-/// The lobe from the cosines of wi, wo and the half vector (all in (0, 1]).
-#[inline]
-pub fn lobe(alpha: f32, cos_i: f32, cos_o: f32, cos_h: f32) -> f32 {
-    d(alpha, cos_h) * smith_g1(alpha, cos_i) * smith_g1(alpha, cos_o) / (4.0 * cos_i * cos_o)
-}
+// The lobe itself is shared with the runtime (which shades compact lights with it).
+pub use prt_formats::lobe::ggx::{d, lobe, smith_g1};
 
 /// Density over the half vector's solid angle of [`sample_half`]: `D(h) cos(theta_h)`.
 #[inline]
