@@ -55,6 +55,7 @@ pub mod hooks;
 /// file and slot coefficients (`PixelRelighter::file`, `PixelRelighter::coefficients`).
 #[cfg(feature = "gpu-surface")]
 pub mod gpu_surface {
+    pub use crate::vertex::compact_lights::CompactLight;
     pub use crate::vertex::surface::{
         ClusteredTensor, SplitWidth, StageConstants, StageGroup, StageTensor, Stages, StoredValues,
         SurfaceLobe, SurfaceMaterial, VertexSurface, RECORD_E, RECORD_I1, RECORD_I2, RECORD_U,

@@ -301,9 +301,16 @@ pub(super) fn light_stage(
     let n_i = meta.t2_slots.len();
     // C0 interleaved, one 16-byte entry per Haar coefficient: each sparse term gathers one
     // entry instead of three from separate arrays.
-    let haar: Vec<[f32; 4]> = (0..light.haar[0].len())
-        .map(|i| [light.haar[0][i], light.haar[1][i], light.haar[2][i], 0.0])
-        .collect();
+    let interleave = |c: &[Vec<f32>; 3]| -> Vec<[f32; 4]> {
+        (0..c[0].len())
+            .map(|i| [c[0][i], c[1][i], c[2][i], 0.0])
+            .collect()
+    };
+    let haar = interleave(&light.haar);
+    // The glossy rows `U` read the map less its compact lights when it has any (they are
+    // shaded per pixel, `compact_lights.rs`); the irradiance row the whole map.
+    let glossy_haar = light.glossy_haar.as_ref().map(interleave);
+    let glossy_haar = glossy_haar.as_ref().unwrap_or(&haar);
     // The open sky's irradiance per normal, for vertices whose irradiance row is the
     // occluded part (`open` flags, schema 4): computed only when some vertex needs it.
     let open_sky = &light.open_sky;
@@ -329,8 +336,9 @@ pub(super) fn light_stage(
                 for (k, ok) in o.iter_mut().enumerate() {
                     let mut acc = [0.0f32; 3];
                     let row = k * terms..(k + 1) * terms;
+                    let light = if k + 1 < rows { glossy_haar } else { &haar };
                     for (&x, &i) in values[row.clone()].iter().zip(&indices[row]) {
-                        let c = haar[i as usize];
+                        let c = light[i as usize];
                         acc[0] += x * c[0];
                         acc[1] += x * c[1];
                         acc[2] += x * c[2];

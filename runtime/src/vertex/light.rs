@@ -20,6 +20,8 @@ use prt_formats::lighting::{prefilter, CubeMap, Face, HaarCube, LightingError};
 use prt_formats::vertex::{DIRECT_CUBE, T1_LIGHT_CUBE, T2_LIGHT_CUBE};
 use rayon::prelude::*;
 
+use super::compact_lights::CompactLight;
+
 /// The coefficients of one environment (see the module documentation).
 #[derive(Debug, Clone)]
 pub struct LightCoefficients {
@@ -42,6 +44,12 @@ pub struct LightCoefficients {
     /// stage scales a pixel's irradiance by the open sky's at the bent normal over that at
     /// the interpolated one).
     pub open_sky: Option<CubeMap>,
+    /// `C0` of the map less its compact lights (`compact_lights.rs`), which the glossy rows
+    /// `U` read (the lights are shaded per pixel instead); `None`: they read `haar`.
+    pub glossy_haar: Option<[Vec<f32>; 3]>,
+    /// The compact lights taken out of `glossy_haar` and `prefiltered`, in the world's frame
+    /// (after the rotation), their power times the intensity.
+    pub compact_lights: Vec<CompactLight>,
 }
 
 impl LightCoefficients {
@@ -85,6 +93,8 @@ impl LightCoefficients {
             widths_deg: widths_deg.to_vec(),
             prefiltered,
             open_sky: None,
+            glossy_haar: None,
+            compact_lights: Vec::new(),
         })
     }
 }

@@ -6,6 +6,11 @@
 use prt_formats::envmap::LatLongMap;
 use prt_formats::lighting::{CubeMap, LightingError};
 
+use prt_formats::lighting::cubemap::rotation_y;
+use prt_formats::lighting::HaarCube;
+use prt_formats::vertex::DIRECT_CUBE;
+
+use super::compact_lights::{self, Extraction};
 use super::incident::GroupLight;
 use super::light::{self, LightCoefficients};
 
@@ -73,57 +78,106 @@ impl LightState {
 /// prefilter of 0.3 to 0.7 s). Scaled by a power of two the result is the same bits.
 #[derive(Default)]
 pub(super) struct PrefilterCache {
-    cubes: Option<Vec<CubeMap>>,
+    /// The cubes and whether they are of the map less its compact lights.
+    cubes: Option<(bool, Vec<CubeMap>)>,
+    /// The map (as set, before its intensity) split into its compact lights and the rest:
+    /// found once per map, like the cubes.
+    extraction: Option<Extraction>,
     /// How many times the prefilter ran (for the hooks' `prefilter_runs`).
     pub(super) runs: u64,
 }
 
 impl PrefilterCache {
-    /// Forgets the cubes (the map changed).
+    /// Forgets the cubes and the lights (the map changed).
     pub(super) fn clear(&mut self) {
         self.cubes = None;
+        self.extraction = None;
     }
 
-    /// The prefiltered cubes of `map` (as set, before its intensity) unturned for `widths`
-    /// (degrees), times `intensity`; prefiltered only when not kept yet.
+    /// `map` (as set, before its intensity) split into its compact lights and the rest,
+    /// found when not kept yet.
+    pub(super) fn extraction(&mut self, map: &LatLongMap) -> &Extraction {
+        self.extraction
+            .get_or_insert_with(|| compact_lights::extract(map))
+    }
+
+    /// The split found by [`PrefilterCache::extraction`], if kept.
+    pub(super) fn kept_extraction(&self) -> Option<&Extraction> {
+        self.extraction.as_ref()
+    }
+
+    /// The prefiltered cubes of `map` (as set, before its intensity; `compact`: less its
+    /// compact lights) unturned for `widths` (degrees), times `intensity`; prefiltered only
+    /// when not kept yet.
     pub(super) fn scaled(
         &mut self,
         map: &LatLongMap,
         widths: &[f64],
         intensity: f32,
+        compact: bool,
     ) -> Result<Vec<CubeMap>, LightingError> {
-        let cubes = match &self.cubes {
-            Some(cubes) => cubes,
-            None => {
+        let cubes = match self.cubes.take() {
+            Some((kept, cubes)) if kept == compact => cubes,
+            _ => {
                 self.runs += 1;
-                let made = light::prefiltered(&light::environment_cube(map, 0.0)?, widths)?;
-                self.cubes.insert(made)
+                let source = if compact {
+                    &self.extraction(map).residual
+                } else {
+                    map
+                };
+                light::prefiltered(&light::environment_cube(source, 0.0)?, widths)?
             }
         };
-        if intensity == 1.0 {
-            return Ok(cubes.clone());
-        }
-        cubes
-            .iter()
-            .map(|c| {
-                let texels = c.texels().iter().map(|t| t.map(|v| v * intensity));
-                CubeMap::new(c.size(), texels.collect())
-            })
-            .collect()
+        let out = if intensity == 1.0 {
+            Ok(cubes.clone())
+        } else {
+            cubes
+                .iter()
+                .map(|c| {
+                    let texels = c.texels().iter().map(|t| t.map(|v| v * intensity));
+                    CubeMap::new(c.size(), texels.collect())
+                })
+                .collect()
+        };
+        self.cubes = Some((compact, cubes));
+        out
     }
 }
 
 /// The light coefficients of `map` (the lighting map: the environment times its intensity)
 /// turned `rotation_deg`, with `prefiltered`, the unturned cubes of the same light
-/// ([`PrefilterCache::scaled`]).
+/// ([`PrefilterCache::scaled`]); with `compact`, the environment's compact lights and the
+/// rest (before the intensity, `intensity`): the lights turned into the world and the glossy
+/// rows' Haar coefficients of the rest.
 pub(super) fn light_coefficients(
     map: &LatLongMap,
     rotation_deg: f32,
     widths: &[f64],
     prefiltered: Vec<CubeMap>,
+    compact: Option<(&Extraction, f32)>,
 ) -> Result<LightCoefficients, LightingError> {
     let mut base = LightCoefficients::from_latlong(map, f64::from(rotation_deg), &[])?;
     base.widths_deg = widths.to_vec();
     base.prefiltered = prefiltered;
+    if let Some((extraction, intensity)) = compact.filter(|(e, _)| !e.lights.is_empty()) {
+        let to_world = rotation_y(f64::from(rotation_deg));
+        base.compact_lights = extraction
+            .lights
+            .iter()
+            .map(|l| {
+                let mut t = compact_lights::turned(l, &to_world);
+                t.power = t.power.map(|p| p * intensity);
+                t
+            })
+            .collect();
+        let mut rest = extraction.residual.clone();
+        if intensity != 1.0 {
+            for t in &mut rest.texels {
+                *t = t.map(|v| v * intensity);
+            }
+        }
+        let cube = light::environment_cube(&rest, f64::from(rotation_deg))?;
+        base.glossy_haar = Some(HaarCube::new(DIRECT_CUBE)?.forward_cube(&cube)?);
+    }
     Ok(base)
 }

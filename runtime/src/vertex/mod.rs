@@ -28,6 +28,7 @@
 //! interpolated normal turns away from the eye) is black.
 
 mod clustered;
+pub(crate) mod compact_lights;
 mod constants;
 pub(crate) mod incident;
 pub(crate) mod light;
@@ -131,6 +132,9 @@ pub struct VertexRelighter {
     /// The true lobe at the last reflection and its samples per pixel per side: the
     /// measurement hook `set_true_lobe` sets it for the error budget (`true_lobe.rs`).
     true_lobe: Option<(std::sync::Arc<dyn true_lobe::TrueLobe>, u32)>,
+    /// Whether the map's compact lights are shaded per pixel with the true lobe
+    /// (`compact_lights.rs`; on unless [`VertexRelighter::set_compact_lights`] turns it off).
+    compact_lights: bool,
 }
 
 impl VertexRelighter {
@@ -227,6 +231,7 @@ impl VertexRelighter {
             host_vertex_stages: true,
             direct_light_only: false,
             true_lobe: None,
+            compact_lights: true,
         })
     }
 
@@ -560,6 +565,21 @@ impl VertexRelighter {
         self.true_lobe = lobe;
     }
 
+    /// Shades the map's compact lights (a sun, a studio lamp: its few bright texels, taken out
+    /// of the map) per pixel with each glossy material's true lobe (`on`, the default), or
+    /// leaves the whole map to the shading basis (docs/vertex.md, "Compact lights"). The
+    /// lights cost a lobe evaluation and a visibility lookup per light per glossy pixel (a
+    /// GPU backend's frames shade them too: `gpu_surface::VertexSurface::compact_lights`).
+    pub fn set_compact_lights(&mut self, on: bool) {
+        if self.compact_lights != on {
+            self.compact_lights = on;
+            // The prefiltered cubes change (of the map or of the map less its lights).
+            self.map_runs += 1;
+            self.light = None;
+            self.shaded = None;
+        }
+    }
+
     /// How many times the environment's prefilter has run (once per map: a turn or an
     /// intensity change reuses its cubes).
     #[cfg(feature = "hooks")]
@@ -629,9 +649,13 @@ impl VertexRelighter {
             return Ok(None);
         }
         let start = Instant::now();
-        let prefiltered =
-            self.prefiltered
-                .scaled(&self.environment, &self.prefilter_widths, self.intensity)?;
+        let compact = self.compact_lights;
+        let prefiltered = self.prefiltered.scaled(
+            &self.environment,
+            &self.prefilter_widths,
+            self.intensity,
+            compact,
+        )?;
         if !self.host_vertex_stages {
             self.light = Some(LightState::Device {
                 widths_deg: self.prefilter_widths.clone(),
@@ -646,6 +670,10 @@ impl VertexRelighter {
             self.rotation_deg,
             &self.prefilter_widths,
             prefiltered,
+            self.prefiltered
+                .kept_extraction()
+                .filter(|_| compact)
+                .map(|e| (e, self.intensity)),
         )?;
         if self.needs_open_sky() {
             coefficients.open_sky = Some(light::open_sky(&coefficients.cube)?);

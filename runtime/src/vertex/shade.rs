@@ -24,7 +24,10 @@
 //!   Gaussian's cosine-weighted centroid `c_w` (`cosine_centroid`: `r` raised towards the
 //!   normal; at `r` a grazing view was too dark), `V(c_w)` the vertices' visible fraction there
 //!   (the 6x16x16 cube bilinear between texel centres and across face edges, interpolated over
-//!   the vertices), `g_w` the normalized Gaussian's per-band SH factors, read at `r`.
+//!   the vertices), `g_w` the normalized Gaussian's per-band SH factors, read at `r`;
+//! - **compact lights** (`compact_lights.rs`; `U` and `Ibar_w` are of the map less them):
+//!   `Ks sum_k f(wo, l_k) (n' . l_k) V(l_k) P_k` with the family's true lobe `f`
+//!   (`prt_formats::lobe`), `P_k` the light's power and `V` the visible fraction as above.
 //!
 //! This is `ShadingBasis::reflected` for the three channels at once (the parameter and `wo`
 //! rows are evaluated once per pixel instead of once per channel; a unit test checks the two
@@ -40,6 +43,7 @@ use prt_formats::latlong;
 use prt_formats::lighting::cubemap::{bilinear_taps, direction_to_face_st};
 use prt_formats::lighting::sh::{sh_band, sh_eval_f32, SH_BANDS, SH_COUNT};
 use prt_formats::lighting::Face;
+use prt_formats::lobe::specular_lobe;
 use prt_formats::normal_map::{perturb, triangle_uv_axes};
 use prt_formats::pixel::MaterialParams;
 use prt_formats::texture::sample_bilinear;
@@ -580,7 +584,7 @@ impl ViewInputs<'_> {
             }
         }
         let incident = &rec[U_AT..U_AT + 3 * basis.ranks.i];
-        let spec = reflected_rgb_with(
+        let mut spec = reflected_rgb_with(
             basis,
             &lobe.core,
             &dw,
@@ -588,6 +592,25 @@ impl ViewInputs<'_> {
             incident,
             &prefiltered[..widths.len()],
         );
+        // The compact lights, which the records' `U` and the prefiltered cubes leave out
+        // (`compact_lights.rs`): each through the true lobe, shadowed by the same visibility.
+        for light in &self.light.compact_lights {
+            let wi_l = to_local(tangent, bitangent, ns, light.direction);
+            if wi_l[2].is_nan() || wi_l[2] <= 0.0 {
+                continue;
+            }
+            let f = specular_lobe(basis.family, lobe.param, wo_l, wi_l) * wi_l[2];
+            if f.is_nan() || f <= 0.0 {
+                continue;
+            }
+            let d = light.direction;
+            let (face, fs, ft) =
+                direction_to_face_st([f64::from(d[0]), f64::from(d[1]), f64::from(d[2])]);
+            let reflected = f * visible_at(face, fs, ft);
+            for (s, p) in spec.iter_mut().zip(light.power) {
+                *s += reflected * p;
+            }
+        }
         for c in 0..3 {
             b[c] += material.ks[c] * spec[c];
         }

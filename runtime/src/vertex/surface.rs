@@ -12,6 +12,9 @@ use prt_formats::lighting::CubeMap;
 use prt_formats::vertex::names;
 use prt_formats::view::CameraFrame;
 
+use prt_formats::Family;
+
+use super::compact_lights::CompactLight;
 use super::incident::{E_AT, I1_AT, I2_AT, U_AT};
 use super::VertexRelighter;
 use crate::error::RuntimeError;
@@ -63,6 +66,11 @@ pub struct SurfaceLobe<'a> {
     pub taps: [(usize, f32); 2],
     /// How many of `taps` are used.
     pub taps_len: usize,
+    /// Its family, whose true lobe (`prt_formats::lobe::specular_lobe`) reflects the compact
+    /// lights ([`VertexSurface::compact_lights`]).
+    pub family: Family,
+    /// Its parameter (shininess or alpha) as set.
+    pub param: f32,
 }
 
 /// One material as the view stage reads it.
@@ -353,6 +361,8 @@ impl<'a> VertexSurface<'a> {
                     core: &l.core,
                     taps,
                     taps_len,
+                    family: self.r.scene.shading[l.basis].family,
+                    param: l.param,
                 })
             }
             _ => None,
@@ -411,6 +421,38 @@ impl<'a> VertexSurface<'a> {
     /// The map that lights the scene (intensity applied), unturned.
     pub fn environment(&self) -> &'a LatLongMap {
         self.r.lighting_map()
+    }
+
+    /// The map's compact lights (docs/vertex.md, "Compact lights"; empty when there are none
+    /// or [`VertexRelighter::set_compact_lights`] turned them off): directions in the map's
+    /// frame, **unturned** (a light at `d` is at `R_y(rotation) d` in the world), powers times
+    /// the intensity. A glossy pixel adds `Ks f(wo, l) (n' . l) V(l) P` per light, with the
+    /// family's true lobe `f` and the visible fraction `V` read as for the split's widths;
+    /// the records' `U` and [`VertexSurface::prefiltered`] leave them out.
+    pub fn compact_lights(&self) -> Vec<CompactLight> {
+        let r = self.r;
+        match r.prefiltered.kept_extraction() {
+            Some(e) if r.compact_lights => e
+                .lights
+                .iter()
+                .map(|l| CompactLight {
+                    direction: l.direction,
+                    power: l.power.map(|p| p * r.intensity),
+                })
+                .collect(),
+            _ => Vec::new(),
+        }
+    }
+
+    /// The map less its compact lights, **before** the intensity (multiply by the second
+    /// value), when it has any: what a device's light stage dots the glossy rows of T0 (all
+    /// rows but the last, the irradiance) with; `None`: they read the lighting map.
+    pub fn glossy_environment(&self) -> Option<(&'a LatLongMap, f32)> {
+        let r = self.r;
+        match r.prefiltered.kept_extraction() {
+            Some(e) if r.compact_lights && !e.lights.is_empty() => Some((&e.residual, r.intensity)),
+            _ => None,
+        }
     }
 
     /// The environment's rotation about +Y in degrees: radiance from world direction `d` is

@@ -131,11 +131,15 @@ fn a_turned_lookup_matches_prefiltering_the_turned_map() {
     let turned = light::environment_cube(&map, f64::from(rotation)).expect("turned cube");
     let direct = light::prefiltered(&turned, &widths).expect("prefiltered turned map");
     let mut cache = PrefilterCache::default();
-    let unturned = cache.scaled(&map, &widths, 1.0).expect("prefiltered");
-    let reused = light_coefficients(&map, rotation, &widths, unturned)
+    let unturned = cache
+        .scaled(&map, &widths, 1.0, false)
+        .expect("prefiltered");
+    let reused = light_coefficients(&map, rotation, &widths, unturned, None)
         .expect("coefficients")
         .prefiltered;
-    cache.scaled(&map, &widths, 2.0).expect("prefiltered");
+    cache
+        .scaled(&map, &widths, 2.0, false)
+        .expect("prefiltered");
     assert_eq!(cache.runs, 1, "the unturned cubes were not kept");
     let env = shade::Environment {
         map: &map,
