@@ -481,6 +481,38 @@ fn vertex_settings(ctx: &GpuContext, path: &Path, label: &str, stages_on_device:
         v.set_size(24, 16).expect("size");
     }
     compare(&mut g, &format!("{label}: lamps, 24x16"));
+    // A sun behind the camera, 2 x 2 texels: a compact light (docs/vertex.md), reflected per
+    // pixel by the ball through its true lobe while the records' U and the prefiltered cubes
+    // hold the map less it; then the same with the compact lights off, and turned.
+    let sun: Vec<f32> = (0..w * h)
+        .flat_map(|k| {
+            let (x, y) = (k % w, k / w);
+            let v = if x < 2 && (14..16).contains(&y) {
+                3000.0
+            } else {
+                0.3 + 0.2 * (y as f32 / h as f32)
+            };
+            [v, 0.9 * v, 0.8 * v]
+        })
+        .collect();
+    if let Relighter::Vertex(v) = g.relighter_mut() {
+        v.set_environment_texels(w, h, &sun).expect("sun");
+        v.set_environment_rotation(0.0).expect("rotation");
+        v.set_size(64, 48).expect("size");
+    }
+    compare(&mut g, &format!("{label}: a sun (a compact light)"));
+    if let Relighter::Vertex(v) = g.relighter_mut() {
+        v.prepare_stages().expect("stages");
+        let lights = v.surface().expect("surface").compact_lights();
+        // Each texel is 3.75 degrees wide, more than a light's radius: a light per texel.
+        assert_eq!(lights.len(), 4, "{label}: the sun is not 4 compact lights");
+        v.set_environment_rotation(40.0).expect("rotation");
+    }
+    compare(&mut g, &format!("{label}: a sun, turned 40 degrees"));
+    if let Relighter::Vertex(v) = g.relighter_mut() {
+        v.set_compact_lights(false);
+    }
+    compare(&mut g, &format!("{label}: a sun, compact lights off"));
 }
 
 #[test]

@@ -11,8 +11,11 @@ struct Env {
     // lat-long u by it (radiance from d is the map's from R_y(-rotation) d, whose azimuth is
     // d's plus the rotation) and leaves v.
     turns: f32,
-    pad3: u32,
-    pad4: u32,
+    // Where the map read lies in `map` (floats: the lighting map at 0, the map less its
+    // compact lights after it) and where C0 goes in `light` (entries): the glossy rows' C0
+    // is a second pass over the map less its lights.
+    map_at: u32,
+    c0_at: u32,
     pad5: u32,
     env_width: u32,
     env_height: u32,
@@ -54,7 +57,7 @@ const N32: u32 = 32u;
 @group(0) @binding(4) var<storage, read_write> light: array<vec4<f32>>;
 
 fn env_texel(x: u32, y: u32) -> vec3<f32> {
-    let at = 3u * (y * env.env_width + x);
+    let at = env.map_at + 3u * (y * env.env_width + x);
     return vec3<f32>(map[at], map[at + 1u], map[at + 2u]);
 }
 
@@ -119,7 +122,7 @@ fn haar(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) n: vec3<u
     let face = id / PER_FACE;
     let o = id % PER_FACE;
     if o == 0u {
-        light[id] = vec4<f32>(block_sum(face, 0u, 0u, N, N) / f32(N), 0.0);
+        light[env.c0_at + id] = vec4<f32>(block_sum(face, 0u, 0u, N, N) / f32(N), 0.0);
         return;
     }
     // Level l holds [4^l, 4^(l+1)): 2^l x 2^l squares, three kinds of 4^l each.
@@ -146,7 +149,7 @@ fn haar(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) n: vec3<u
     } else {
         c = tl - tr - bl + br;
     }
-    light[id] = vec4<f32>(c / f32(side), 0.0);
+    light[env.c0_at + id] = vec4<f32>(c / f32(side), 0.0);
 }
 
 // The solid-angle-weighted mean of the cube over one texel of a coarser cube of side

@@ -82,7 +82,9 @@ struct Group {
     // Which tensor the light kernels and `cluster_m` work on (T1: 0, T2: 1).
     which: u32,
     open_sky_at: u32,
-    pad: u32,
+    // In `light`: C0 of the map less its compact lights, which the glossy rows (all but the
+    // last, the irradiance) read (the map's own C0 when it has no compact lights).
+    glossy_c0_at: u32,
     t: array<Tensor, 2>,
 }
 
@@ -92,8 +94,8 @@ const PI: f32 = 3.14159265358979;
 const WORKGROUP: u32 = 64u;
 
 @group(0) @binding(0) var<uniform> g: Group;
-// C0 (6x64x64 Haar coefficients), C1 (6x8x8), C2 (6x2x2), the open sky's irradiance (6x32x32):
-// RGB per entry.
+// C0 (6x64x64 Haar coefficients), C1 (6x8x8), C2 (6x2x2), the open sky's irradiance (6x32x32),
+// the glossy rows' C0 (6x64x64): RGB per entry.
 @group(0) @binding(1) var<storage, read> light: array<vec4<f32>>;
 // Per group its J slot coefficients, then T2's I.
 @group(0) @binding(2) var<storage, read> coeff: array<vec4<f32>>;
@@ -148,9 +150,10 @@ fn t0_dot(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) n: vec3
     let k = id % g.rows;
     var acc = vec3<f32>(0.0);
     let base = id * g.terms;
+    let c0_at = select(g.glossy_c0_at, 0u, k + 1u == g.rows);
     for (var t = 0u; t < g.terms; t = t + 1u) {
         let x = stored(g.t0_values_at, g.t0_f16, base + t);
-        let c = light[u16_at(g.t0_index_at, base + t)].xyz;
+        let c = light[c0_at + u16_at(g.t0_index_at, base + t)].xyz;
         acc = acc + x * c;
     }
     acc = acc * g.scale_t0;

@@ -37,6 +37,12 @@ struct Frame {
     open_sky_cube: i32,
     // Sub-samples per side of a background pixel (VertexSurface::background_samples).
     background_samples: u32,
+    // The compact lights in `environment` (8 floats each: the unturned direction, 0, the
+    // power, 0) and how many (VertexSurface::compact_lights).
+    lights_at: u32,
+    n_lights: u32,
+    pad0: u32,
+    pad1: u32,
 }
 
 struct Material {
@@ -57,6 +63,11 @@ struct Material {
     tap1_w: f32,
     // Its normal map (a texture of decoded vectors), or -1.
     normal_map: i32,
+    // Its family (FAMILY_*) and parameter: the compact lights' true lobe.
+    family: u32,
+    param: f32,
+    pad0: u32,
+    pad1: u32,
 }
 
 struct Basis {
@@ -89,7 +100,8 @@ struct Basis {
 @group(0) @binding(6) var<storage, read> bases: array<Basis>;
 // The bases' tables and the textures' texels (3 per texel).
 @group(0) @binding(7) var<storage, read> tables: array<f32>;
-// The lighting map's texels (3 per texel) and the materials' contracted cores.
+// The lighting map's texels (3 per texel), then its compact lights (Frame::lights_at), and
+// the materials' contracted cores.
 @group(0) @binding(8) var<storage, read> environment: array<f32>;
 @group(0) @binding(9) var<storage, read> cores: array<f32>;
 // The prefiltered cubes, cube c in layers 6 c .. 6 c + 5 (face order +X -X +Y -Y +Z -Z),
@@ -105,6 +117,40 @@ const U_AT: u32 = 54u;
 const VISIBILITY_CUBE: u32 = 16u;
 const MAX_RANK: u32 = 32u;
 const MAX_WIDTHS: u32 = 8u;
+const FAMILY_BLINN_PHONG: u32 = 1u;
+const FAMILY_GGX: u32 = 2u;
+
+// The family's specular lobe at local unit directions (prt_formats::lobe::specular_lobe).
+fn specular_lobe(family: u32, param: f32, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
+    if !(wo.z > 0.0) || !(wi.z > 0.0) {
+        return 0.0;
+    }
+    let h = wi + wo;
+    let len = length(h);
+    if len <= 1e-12 {
+        return 0.0;
+    }
+    let cos_h = clamp(h.z / len, 0.0, 1.0);
+    if family == FAMILY_BLINN_PHONG {
+        if cos_h <= 0.0 {
+            return select(0.0, 1.0 / PI, param == 0.0);
+        }
+        return (param + 2.0) * (0.5 / PI) * exp(param * log(cos_h));
+    }
+    if family == FAMILY_GGX {
+        let a2 = param * param;
+        let c2 = cos_h * cos_h;
+        let denom = a2 * c2 + max(1.0 - c2, 0.0);
+        if denom <= 0.0 {
+            return 0.0;
+        }
+        let d = a2 / (PI * denom * denom);
+        let g1i = 2.0 * wi.z / (wi.z + sqrt(a2 + (1.0 - a2) * wi.z * wi.z));
+        let g1o = 2.0 * wo.z / (wo.z + sqrt(a2 + (1.0 - a2) * wo.z * wo.z));
+        return d * g1i * g1o / (4.0 * wi.z * wo.z);
+    }
+    return 0.0;
+}
 
 struct MeshOut {
     @builtin(position) position: vec4<f32>,
@@ -712,6 +758,28 @@ fn shade(t: u32, bary: vec2<f32>) -> vec3<f32> {
             rw = rw + dw.pole * sw * tables[basis.refl_pole_at + j * nw + k];
         }
         spec = spec + rw * prefiltered[k];
+    }
+    // The compact lights, which the records' U and the prefiltered cubes leave out: each
+    // through the true lobe, shadowed by the same visibility (runtime `shade`).
+    for (var k = 0u; k < frame.n_lights; k = k + 1u) {
+        let at = frame.lights_at + 8u * k;
+        let dm = vec3<f32>(environment[at], environment[at + 1u], environment[at + 2u]);
+        // Into the world: the transpose of R_y(-rotation).
+        let d = frame.back0.xyz * dm.x + frame.back1.xyz * dm.y + frame.back2.xyz * dm.z;
+        let wi_l = vec3<f32>(dot(tangent, d), dot(bitangent, d), dot(ns, d));
+        if !(wi_l.z > 0.0) {
+            continue;
+        }
+        let f = specular_lobe(m.family, m.param, wo_l, wi_l) * wi_l.z;
+        if !(f > 0.0) {
+            continue;
+        }
+        let lat = face_st(d);
+        let visible = w.x * visible_bilinear(index[frame.vertex_info_at + 2u * v0 + 1u], lat)
+            + w.y * visible_bilinear(index[frame.vertex_info_at + 2u * v1 + 1u], lat)
+            + w.z * visible_bilinear(index[frame.vertex_info_at + 2u * v2 + 1u], lat);
+        let power = vec3<f32>(environment[at + 4u], environment[at + 5u], environment[at + 6u]);
+        spec = spec + (f * visible) * power;
     }
     b = b + m.ks * spec;
     // Radiance is never negative, but its approximations can ring below 0 next to sharp

@@ -32,6 +32,11 @@ pub(super) struct FrameBlock {
     pub(super) open_sky_cube: i32,
     /// Sub-samples per side of a background pixel (`VertexSurface::background_samples`).
     pub(super) background_samples: u32,
+    /// The compact lights in `environment` (floats; 8 per light: the unturned direction, 0,
+    /// the power, 0) and how many (`VertexSurface::compact_lights`).
+    pub(super) lights_at: u32,
+    pub(super) n_lights: u32,
+    pub(super) pad: [u32; 2],
 }
 
 /// `Material` in the shader.
@@ -50,6 +55,19 @@ pub(super) struct MaterialBlock {
     pub(super) tap1: u32,
     pub(super) tap1_w: f32,
     pub(super) normal_map: i32,
+    /// Its family (`FAMILY_*` in the shader) and parameter, for the compact lights' true lobe.
+    pub(super) family: u32,
+    pub(super) param: f32,
+    pub(super) pad: [u32; 2],
+}
+
+/// The shader's code of a family (`FAMILY_*` in `shaders/vertex.wgsl`).
+pub(super) fn family_code(family: prt_formats::Family) -> u32 {
+    match family {
+        prt_formats::Family::Diffuse => 0,
+        prt_formats::Family::BlinnPhong => 1,
+        prt_formats::Family::Ggx => 2,
+    }
 }
 
 /// `Basis` in the shader.

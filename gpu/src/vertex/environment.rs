@@ -24,7 +24,9 @@ const WORKGROUP: u32 = 64;
 #[derive(Clone, Copy, Default, bytemuck::Pod, bytemuck::Zeroable)]
 struct EnvBlock {
     turns: f32,
-    pad0: [u32; 3],
+    map_at: u32,
+    c0_at: u32,
+    pad0: u32,
     env_width: u32,
     env_height: u32,
     m: u32,
@@ -47,6 +49,8 @@ pub(super) struct LightTargets {
     pub(super) c1_at: usize,
     pub(super) c2_at: usize,
     pub(super) open_sky_at: usize,
+    /// C0 of the map less its compact lights (the glossy rows' light).
+    pub(super) glossy_c0_at: usize,
 }
 
 /// The kernels, their tables and their scratch (see the module documentation).
@@ -57,9 +61,17 @@ pub(super) struct EnvironmentStage {
     open_sky: wgpu::ComputePipeline,
     program: ComputeProgram,
     uniform: wgpu::Buffer,
+    /// The block of the glossy rows' pass (the map less its compact lights into
+    /// `glossy_c0_at`), and its bind group.
+    glossy_uniform: wgpu::Buffer,
     tables: Option<wgpu::Buffer>,
     cube: wgpu::Buffer,
     bind: Option<wgpu::BindGroup>,
+    glossy_bind: Option<wgpu::BindGroup>,
+    /// Whether the map has compact lights (then the glossy pass runs over the map less them;
+    /// else the map's cube is transformed a second time into `glossy_c0_at`).
+    glossy: bool,
+    glossy_c0_at: usize,
     /// The map size the tables were made for.
     map_size: (usize, usize),
     needs_open_sky: bool,
@@ -110,12 +122,16 @@ impl EnvironmentStage {
             usage: wgpu::BufferUsages::STORAGE,
             mapped_at_creation: false,
         });
-        let uniform = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("prt-gpu environment block"),
-            size: std::mem::size_of::<EnvBlock>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let block_buffer = |label| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: std::mem::size_of::<EnvBlock>() as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        };
+        let uniform = block_buffer("prt-gpu environment block");
+        let glossy_uniform = block_buffer("prt-gpu environment block, glossy rows");
         Ok(EnvironmentStage {
             resample: pipeline("resample"),
             haar: pipeline("haar"),
@@ -123,9 +139,13 @@ impl EnvironmentStage {
             open_sky: pipeline("open_sky"),
             program,
             uniform,
+            glossy_uniform,
             tables: None,
             cube,
             bind: None,
+            glossy_bind: None,
+            glossy: false,
+            glossy_c0_at: targets.glossy_c0_at,
             map_size: (0, 0),
             needs_open_sky,
             block: EnvBlock {
@@ -138,14 +158,17 @@ impl EnvironmentStage {
         })
     }
 
-    /// Sets the map (`map`: its texels, `width` x `height`) and rotation for the next
+    /// Sets the map (`map`: its texels, `width` x `height`; from float `glossy_at` on, the
+    /// map less its compact lights when it has any) and rotation for the next
     /// [`EnvironmentStage::encode`]; `rebind`: the map's or the light's buffer was made anew.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn set(
         &mut self,
         ctx: &GpuContext,
         map: &wgpu::Buffer,
         (width, height): (usize, usize),
         rotation_deg: f32,
+        glossy_at: Option<usize>,
         light: &wgpu::Buffer,
         rebind: bool,
     ) -> Result<(), GpuError> {
@@ -214,8 +237,9 @@ impl EnvironmentStage {
         }
         if rebind {
             self.bind = None;
+            self.glossy_bind = None;
         }
-        if self.bind.is_none() {
+        if self.bind.is_none() || self.glossy_bind.is_none() {
             let Some(tables) = &self.tables else {
                 return Err(GpuError::Unsupported("no environment tables".into()));
             };
@@ -224,33 +248,73 @@ impl EnvironmentStage {
                 "prt-gpu environment",
                 &[&self.uniform, map, tables, &self.cube, light],
             ));
+            self.glossy_bind = Some(self.program.bind_group(
+                &ctx.device,
+                "prt-gpu environment, glossy rows",
+                &[&self.glossy_uniform, map, tables, &self.cube, light],
+            ));
         }
         self.block.turns = (f64::from(rotation_deg) / 360.0).rem_euclid(1.0) as f32;
         self.block.env_width = width as u32;
         self.block.env_height = height as u32;
+        self.block.map_at = 0;
+        self.block.c0_at = 0;
         ctx.queue
             .write_buffer(&self.uniform, 0, bytemuck::bytes_of(&self.block));
+        self.glossy = glossy_at.is_some();
+        let to_u32 = |v: usize| {
+            u32::try_from(v).map_err(|_| {
+                GpuError::Unsupported("the map less its compact lights lies too far".into())
+            })
+        };
+        let glossy = EnvBlock {
+            map_at: to_u32(glossy_at.unwrap_or(0))?,
+            c0_at: to_u32(self.glossy_c0_at)?,
+            ..self.block
+        };
+        ctx.queue
+            .write_buffer(&self.glossy_uniform, 0, bytemuck::bytes_of(&glossy));
         Ok(())
     }
 
     /// Records the kernels (after [`EnvironmentStage::set`]).
     pub(super) fn encode(&self, encoder: &mut wgpu::CommandEncoder) {
-        let Some(bind) = &self.bind else { return };
+        let (Some(bind), Some(glossy_bind)) = (&self.bind, &self.glossy_bind) else {
+            return;
+        };
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("prt-gpu environment"),
             timestamp_writes: None,
         });
-        pass.set_bind_group(0, bind, &[]);
         let texels = cube_len(DIRECT_CUBE) as u32;
+        if self.glossy {
+            // The map less its compact lights first: the cube is then made again of the map,
+            // which the coarse cubes and the open sky read.
+            pass.set_bind_group(0, glossy_bind, &[]);
+            for pipeline in [&self.resample, &self.haar] {
+                pass.set_pipeline(pipeline);
+                pass.dispatch_workgroups(texels.div_ceil(WORKGROUP), 1, 1);
+            }
+        }
+        pass.set_bind_group(0, bind, &[]);
+        for pipeline in [&self.resample, &self.haar] {
+            pass.set_pipeline(pipeline);
+            pass.dispatch_workgroups(texels.div_ceil(WORKGROUP), 1, 1);
+        }
+        if !self.glossy {
+            // Without compact lights the glossy rows read the map's own C0: the same cube's
+            // coefficients written again where they look (a buffer cannot be copied into
+            // itself).
+            pass.set_bind_group(0, glossy_bind, &[]);
+            pass.set_pipeline(&self.haar);
+            pass.dispatch_workgroups(texels.div_ceil(WORKGROUP), 1, 1);
+            pass.set_bind_group(0, bind, &[]);
+        }
         let source = cube_len(IRRADIANCE_SOURCE) as u32;
-        let mut kernels = vec![
-            (&self.resample, texels),
-            (&self.haar, texels),
-            (
-                &self.coarse,
-                (cube_len(T1_LIGHT_CUBE) + cube_len(T2_LIGHT_CUBE)) as u32 + source,
-            ),
-        ];
+        let mut kernels = vec![(
+            &self.coarse,
+            (cube_len(T1_LIGHT_CUBE) + cube_len(T2_LIGHT_CUBE)) as u32 + source,
+        )];
         if self.needs_open_sky {
             kernels.push((&self.open_sky, cube_len(IRRADIANCE_CUBE) as u32));
         }
@@ -315,7 +379,7 @@ mod tests {
 
                 let (c1_at, c2_at) = (cube_len(DIRECT_CUBE), cube_len(DIRECT_CUBE) + 384);
                 let open_sky_at = c2_at + 24;
-                let len = open_sky_at + cube_len(IRRADIANCE_CUBE);
+                let len = open_sky_at + cube_len(IRRADIANCE_CUBE) + cube_len(DIRECT_CUBE);
                 let light = ctx.device.create_buffer(&wgpu::BufferDescriptor {
                     label: None,
                     size: 16 * len as u64,
@@ -334,10 +398,11 @@ mod tests {
                     c1_at,
                     c2_at,
                     open_sky_at,
+                    glossy_c0_at: open_sky_at + cube_len(IRRADIANCE_CUBE),
                 };
                 let mut stage = EnvironmentStage::new(&ctx, targets, true).expect("kernels");
                 stage
-                    .set(&ctx, &map, (w, h), rotation, &light, false)
+                    .set(&ctx, &map, (w, h), rotation, None, &light, false)
                     .expect("set");
                 let readback = Readback::new(&ctx, 16 * len as u64);
                 let mut encoder = ctx.device.create_command_encoder(&Default::default());
@@ -374,6 +439,9 @@ mod tests {
                 check("C1", c1_at, c1.texels(), 1e-5);
                 check("C2", c2_at, c2.texels(), 1e-5);
                 check("open sky", open_sky_at, open.texels(), 1e-5);
+                // No compact lights: the glossy rows read the map's own C0.
+                let glossy_c0_at = open_sky_at + cube_len(IRRADIANCE_CUBE);
+                check("the glossy rows' C0", glossy_c0_at, &c0, 1e-5);
             }
         }
     }

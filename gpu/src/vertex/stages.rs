@@ -82,7 +82,7 @@ struct GroupBlock {
     ehat_at: u32,
     which: u32,
     open_sky_at: u32,
-    pad: u32,
+    glossy_c0_at: u32,
     t: [TensorBlock; 2],
 }
 
@@ -116,6 +116,8 @@ struct LightLayout {
     c1_at: usize,
     c2_at: usize,
     open_sky_at: usize,
+    /// C0 of the map less its compact lights (the glossy rows').
+    glossy_c0_at: usize,
     len: usize,
 }
 
@@ -124,11 +126,13 @@ impl LightLayout {
         let c1_at = cube_len(DIRECT_CUBE);
         let c2_at = c1_at + cube_len(T1_LIGHT_CUBE);
         let open_sky_at = c2_at + cube_len(T2_LIGHT_CUBE);
+        let glossy_c0_at = open_sky_at + cube_len(IRRADIANCE_CUBE);
         LightLayout {
             c1_at,
             c2_at,
             open_sky_at,
-            len: open_sky_at + cube_len(IRRADIANCE_CUBE),
+            glossy_c0_at,
+            len: glossy_c0_at + cube_len(DIRECT_CUBE),
         }
     }
 }
@@ -277,6 +281,7 @@ impl DeviceStages {
                 stride: to_u32(stride, "a record")?,
                 record_at: to_u32(record_at, "the vertex records")?,
                 open_sky_at: to_u32(layout.open_sky_at, "the light")?,
+                glossy_c0_at: to_u32(layout.glossy_c0_at, "the light")?,
                 open_at: NONE,
                 cluster_of_at: NONE,
                 ..Default::default()
@@ -408,6 +413,7 @@ impl DeviceStages {
                 c1_at: layout.c1_at,
                 c2_at: layout.c2_at,
                 open_sky_at: layout.open_sky_at,
+                glossy_c0_at: layout.glossy_c0_at,
             },
             s.needs_open_sky(),
         )?;
@@ -481,18 +487,20 @@ impl DeviceStages {
     }
 
     /// Sets the lighting map (`map`, its texels, `size` its width and height) and rotation
-    /// the next [`DeviceStages::encode_light`] runs the light stage for; `rebind`: the map's
-    /// buffer was made anew.
+    /// the next [`DeviceStages::encode_light`] runs the light stage for, with `glossy_at`
+    /// where in `map` (floats) the map less its compact lights lies when it has any;
+    /// `rebind`: the map's buffer was made anew.
     pub(super) fn set_light(
         &mut self,
         ctx: &GpuContext,
         map: &wgpu::Buffer,
         size: (usize, usize),
         rotation_deg: f32,
+        glossy_at: Option<usize>,
         rebind: bool,
     ) -> Result<(), GpuError> {
         self.environment
-            .set(ctx, map, size, rotation_deg, &self.light, rebind)
+            .set(ctx, map, size, rotation_deg, glossy_at, &self.light, rebind)
     }
 
     /// Records copying the open sky's table into layers `layer ..= layer + 5` of `cubes` (the

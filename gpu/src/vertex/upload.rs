@@ -4,7 +4,7 @@
 
 use prt_runtime::gpu_surface::VertexSurface;
 
-use super::blocks::{cube_sizes, MaterialBlock};
+use super::blocks::{cube_sizes, family_code, MaterialBlock};
 use super::VertexGpu;
 use crate::buffers::check_binding;
 use crate::context::GpuContext;
@@ -72,8 +72,28 @@ impl VertexGpu {
         // map or intensity, not with a turn.
         let map_moved = self.map_runs != Some(s.map_runs());
         let env = s.environment();
+        // The device's light stage also reads the map less its compact lights (the glossy
+        // rows' light), after the map; the view stage the lights, after both.
+        let glossy = s.glossy_environment().filter(|_| self.stages.is_some());
         if light_moved && map_moved {
-            let bytes = 12 * (env.width * env.height) as u64;
+            let texels = env.width * env.height;
+            let lights = s.compact_lights();
+            let mut data: Vec<f32> = Vec::with_capacity(
+                3 * texels * (1 + usize::from(glossy.is_some())) + 8 * lights.len(),
+            );
+            data.extend(env.texels.iter().flatten());
+            if let Some((rest, intensity)) = glossy {
+                data.extend(rest.texels.iter().flatten().map(|v| v * intensity));
+            }
+            self.offsets.lights_at = data.len() as u32;
+            self.offsets.n_lights = lights.len() as u32;
+            for l in &lights {
+                data.extend(l.direction);
+                data.push(0.0);
+                data.extend(l.power);
+                data.push(0.0);
+            }
+            let bytes = 4 * data.len() as u64;
             if bytes > self.environment.size() {
                 check_binding(&self.ctx, "the environment map", bytes)?;
                 self.environment = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
@@ -84,11 +104,7 @@ impl VertexGpu {
                 });
                 rebind = true;
             }
-            queue.write_buffer(
-                &self.environment,
-                0,
-                bytemuck::cast_slice(env.texels.as_slice()),
-            );
+            queue.write_buffer(&self.environment, 0, bytemuck::cast_slice(&data));
             self.offsets.env_width = env.width as u32;
             self.offsets.env_height = env.height as u32;
         }
@@ -99,6 +115,7 @@ impl VertexGpu {
                     &self.environment,
                     (env.width, env.height),
                     s.environment_rotation(),
+                    glossy.map(|_| 3 * env.width * env.height),
                     rebind,
                 )?;
             }
@@ -182,6 +199,8 @@ impl VertexGpu {
                 };
                 if let Some(lobe) = mat.lobe {
                     block.basis = lobe.basis as i32;
+                    block.family = family_code(lobe.family);
+                    block.param = lobe.param;
                     block.core_at = self.core_data.len() as u32;
                     self.core_data.extend_from_slice(lobe.core);
                     block.taps_len = lobe.taps_len as u32;
