@@ -168,6 +168,34 @@ fn a_compact_light_is_reflected_through_the_true_lobe() {
         err < 0.04,
         "the compact light's image is {err:.4} off the reference"
     );
+    // The same light from a map whose columns are shifted a quarter turn, turned back by the
+    // rotation: the lights turn with the map (measured: below 1e-4; the lights left
+    // unturned, planted: 82 %). Bound 2 %.
+    let Environment::LatLong {
+        width,
+        height,
+        texels,
+    } = sky_with_sun(Vec3::new(0.0, 1.0, -1.0).normalize())
+    else {
+        panic!("sky_with_sun makes a lat-long map");
+    };
+    let (w, h) = (width as usize, height as usize);
+    let shifted: Vec<f32> = (0..w * h)
+        .flat_map(|k| {
+            let (x, y) = (k % w, k / w);
+            texels[y * w + (x + w - w / 4) % w].to_array()
+        })
+        .collect();
+    r.set_environment_texels(w, h, &shifted)
+        .expect("shifted map");
+    r.set_environment_rotation(90.0).expect("rotation");
+    let turned = r.render().expect("relight").pixels;
+    let moved = relative_l2(&turned, &relit);
+    eprintln!("compact light, map shifted and turned back: {moved:.4} from the unturned image");
+    assert!(
+        moved < 0.02,
+        "the map shifted a quarter turn and turned back moves the image by {moved:.4}"
+    );
 }
 
 /// The compact light is shadowed: a black bar shades a stripe of the square from the sun,
