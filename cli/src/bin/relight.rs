@@ -92,6 +92,12 @@ struct Args {
     /// view stages (with --orbit as well: the camera moves too).
     #[arg(long, value_name = "DEGREES", allow_negative_numbers = true)]
     turn: Option<f32>,
+    /// Per-vertex bakes: leave the environment's compact lights (a sun, a studio lamp) to the
+    /// shading basis instead of reflecting them per pixel through each glossy material's true
+    /// lobe: cheaper glossy pixels, broader and less accurate highlights (docs/vertex.md,
+    /// "Compact lights").
+    #[arg(long)]
+    no_compact_lights: bool,
     /// Render on a GPU (wgpu: Vulkan, Metal or DX12; docs/gpu.md) instead of the CPU.
     /// Needs a build with `--features gpu`.
     #[arg(long)]
@@ -233,6 +239,7 @@ fn refuse_vertex_flags(args: &Args) -> Result<()> {
         ("--height", args.height.is_some()),
         ("--orbit", args.orbit.is_some()),
         ("--turn", args.turn.is_some()),
+        ("--no-compact-lights", args.no_compact_lights),
     ]
     .into_iter()
     .filter_map(|(flag, given)| given.then_some(flag))
@@ -424,6 +431,7 @@ fn set_up_vertex(args: &Args, r: &mut VertexRelighter) -> Result<prt_formats::vi
         r.set_environment_intensity(intensity)
             .context("--env-intensity")?;
     }
+    r.set_compact_lights(!args.no_compact_lights);
     let (default_width, default_height) = r.size();
     let (width, height) = (
         args.width.unwrap_or(default_width),
