@@ -111,6 +111,20 @@ impl PyVertexRelighter {
             .map_err(errors::runtime)
     }
 
+    /// Whether the map's compact lights (a sun, a studio lamp) are reflected per pixel through
+    /// each glossy material's true lobe (True, the default) or left to the shading basis
+    /// (cheaper glossy pixels, broader highlights; docs/vertex.md, "Compact lights").
+    #[getter]
+    fn compact_lights(mut slf: PyRefMut<'_, Self>) -> PyResult<bool> {
+        Ok(vertex(slf.as_super())?.compact_lights())
+    }
+
+    #[setter]
+    fn set_compact_lights(mut slf: PyRefMut<'_, Self>, on: bool) -> PyResult<()> {
+        vertex(slf.as_super())?.set_compact_lights(on);
+        Ok(())
+    }
+
     /// The current camera (a `prt.Camera`). Setting one whose eye is inside an object, or
     /// whose frame is not finite, raises `prt.ParameterError` and keeps the camera.
     #[getter]

@@ -109,8 +109,18 @@ def test_vertex_render_is_the_cli_image(vitrine, tools, work):
     run([tools["relight"], vitrine, *VERTEX_ARGS, "--out", exr])
     cli = read_exr(exr)
     assert same_bits(image, cli), f"max difference {np.abs(image - cli).max()}"
+    # The studio's lamp is a compact light: off, the image is the tool's with the flag.
+    assert r.compact_lights
+    r.compact_lights = False
+    assert not r.compact_lights
+    basis_only = r.render()
+    exr_off = work / "vitrine-no-compact-lights.exr"
+    run([tools["relight"], vitrine, *VERTEX_ARGS, "--no-compact-lights", "--out", exr_off])
+    assert same_bits(basis_only, read_exr(exr_off))
+    assert not same_bits(basis_only, cli)
     # Each setting reaches the image: undoing any one of them changes it.
     for undo in (
+        lambda v: setattr(v, "compact_lights", False),
         lambda v: setattr(v, "environment_rotation", 0.0),
         lambda v: setattr(v, "environment_intensity", 1.0),
         lambda v: setattr(v, "camera", v.camera.orbited(10.0)),

@@ -580,6 +580,12 @@ impl VertexRelighter {
         }
     }
 
+    /// Whether the map's compact lights are shaded per pixel
+    /// ([`VertexRelighter::set_compact_lights`]).
+    pub fn compact_lights(&self) -> bool {
+        self.compact_lights
+    }
+
     /// How many times the environment's prefilter has run (once per map: a turn or an
     /// intensity change reuses its cubes).
     #[cfg(feature = "hooks")]
