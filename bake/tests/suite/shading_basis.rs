@@ -290,9 +290,14 @@ enum Env {
     Linear,
     /// `exp(4 (w . a - 1))`: a broad lobe (1/e at about 41 degrees) about `a`.
     Lobe,
+    /// `1 + 20` within 6 degrees of `a` (the edge smoothed over 0.002 in `w . a`): a lamp
+    /// the size of the studio map's, as the compact lights leave it (their level).
+    Cap,
 }
 
 const ENV_AXIS: [f64; 3] = [-0.8, 0.0, 0.6];
+/// `cos(6 degrees)`: the cap's edge.
+const CAP_COS: f64 = 0.994_521_895_368_273_3;
 
 impl Env {
     fn radiance(self, w: [f64; 3]) -> f64 {
@@ -301,6 +306,7 @@ impl Env {
             Env::Constant => 1.0,
             Env::Linear => 1.0 + 0.9 * d,
             Env::Lobe => (4.0 * (d - 1.0)).exp(),
+            Env::Cap => 1.0 + 20.0 * (((d - CAP_COS) / 0.002).clamp(-1.0, 1.0) * 0.5 + 0.5),
         }
     }
 }
@@ -402,7 +408,7 @@ fn measure(family: Family, params: &[f64]) -> Vec<Measured> {
         .map(f64::from)
         .collect();
     let mut out = Vec::new();
-    for env in [Env::Constant, Env::Linear, Env::Lobe] {
+    for env in [Env::Constant, Env::Linear, Env::Lobe, Env::Cap] {
         // the reconstruction sees the environment rotated with the view
         let env_rot = |w: [f64; 3]| env.radiance(rot_z(-VIEW_AZIMUTH, w));
         let inc = incident(b, env_rot);
@@ -468,6 +474,18 @@ fn print_table(m: &[Measured]) {
 /// so). What is left at grazing views is the truncated residual's: with the exact
 /// cosine-weighted average of each Gaussian instead of the centroid the figures barely move
 /// (docs/brdf-basis.md, "Shading basis").
+///
+/// The cap (a lamp of 6 degrees, 20 times brighter than the rest, 53 degrees from the normal:
+/// 8 degrees past the mirror direction, on the grazing side, at the 45-degree view) is an open
+/// defect, bounded so that it cannot grow: GGX (alpha 0.05-0.2) is 15-17 % too dark at the
+/// 45-degree view and up to 40 % at grazing views, Blinn-Phong up to 11.5 % and (sharp lobes
+/// at grazing views, where the truth is small) 57 %. The split's Gaussians are isotropic about
+/// the mirror direction and read towards the normal (the cosine-weighted centroid), while the
+/// true lobe reaches further to the grazing side: moved to the normal side of the mirror
+/// direction the same cap is 4.5 % too dark, centred on it 5.2 % (GGX alpha 0.15, radius 6
+/// degrees, a throwaway probe). Bounds: 20 % up to 45 degrees, 45 % (GGX) and 60 %
+/// (Blinn-Phong) beyond; read at the mirror direction (planted) the cap is 48.7 % (GGX) and
+/// 67 % (Blinn-Phong) too dark at grazing views, and they fail.
 fn bound(x: &Measured) -> f64 {
     let grazing = x.view_deg > 45.0;
     match (x.env, grazing, x.family) {
@@ -478,6 +496,9 @@ fn bound(x: &Measured) -> f64 {
         (Env::Lobe, true, Family::Ggx) => 0.20,
         (Env::Linear, true, _) => 0.25,
         (Env::Lobe, true, _) => 0.32,
+        (Env::Cap, false, _) => 0.20,
+        (Env::Cap, true, Family::Ggx) => 0.45,
+        (Env::Cap, true, _) => 0.60,
     }
 }
 
