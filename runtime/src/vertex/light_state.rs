@@ -170,13 +170,19 @@ pub(super) fn light_coefficients(
                 t
             })
             .collect();
-        let mut rest = extraction.residual.clone();
-        if intensity != 1.0 {
-            for t in &mut rest.texels {
-                *t = t.map(|v| v * intensity);
-            }
-        }
-        let cube = light::environment_cube(&rest, f64::from(rotation_deg))?;
+        // A copy only when the intensity scales it (a turn at intensity 1 resamples in place).
+        let scaled;
+        let rest = if intensity == 1.0 {
+            &extraction.residual
+        } else {
+            let mut copy = extraction.residual.clone();
+            copy.texels
+                .iter_mut()
+                .for_each(|t| *t = t.map(|v| v * intensity));
+            scaled = copy;
+            &scaled
+        };
+        let cube = light::environment_cube(rest, f64::from(rotation_deg))?;
         base.glossy_haar = Some(HaarCube::new(DIRECT_CUBE)?.forward_cube(&cube)?);
     }
     Ok(base)
