@@ -363,6 +363,9 @@ fn agreement(ctx: &GpuContext, paths: &[PathBuf], side: u32) -> Result<()> {
         let mut g = GpuRelighter::new(ctx, prt_runtime::open(path)?)?;
         if let Relighter::Vertex(v) = g.relighter_mut() {
             v.set_size(side, side)?;
+            // The device does not antialias silhouettes (docs/gpu.md): its frames are the CPU
+            // runtime's with antialiasing off.
+            v.set_antialias(false);
         }
         let (w, h) = g.relighter().size();
         let mut gpu = vec![0.0f32; 3 * w as usize * h as usize];

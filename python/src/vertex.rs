@@ -125,6 +125,20 @@ impl PyVertexRelighter {
         Ok(())
     }
 
+    /// Whether the pixels on silhouettes and creases are sampled 16 times (True, the default)
+    /// or shaded at their centre alone (jagged outlines; docs/vertex.md, "Silhouettes are
+    /// antialiased").
+    #[getter]
+    fn antialias(mut slf: PyRefMut<'_, Self>) -> PyResult<bool> {
+        Ok(vertex(slf.as_super())?.antialias())
+    }
+
+    #[setter]
+    fn set_antialias(mut slf: PyRefMut<'_, Self>, on: bool) -> PyResult<()> {
+        vertex(slf.as_super())?.set_antialias(on);
+        Ok(())
+    }
+
     /// The current camera (a `prt.Camera`). Setting one whose eye is inside an object, or
     /// whose frame is not finite, raises `prt.ParameterError` and keeps the camera.
     #[getter]

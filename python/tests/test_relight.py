@@ -118,9 +118,20 @@ def test_vertex_render_is_the_cli_image(vitrine, tools, work):
     run([tools["relight"], vitrine, *VERTEX_ARGS, "--no-compact-lights", "--out", exr_off])
     assert same_bits(basis_only, read_exr(exr_off))
     assert not same_bits(basis_only, cli)
+    # Silhouettes are antialiased: off, the image is the tool's with the flag.
+    assert r.antialias
+    r.antialias = False
+    assert not r.antialias
+    centres = r.render()
+    exr_centres = work / "vitrine-no-antialias.exr"
+    run([tools["relight"], vitrine, *VERTEX_ARGS, "--no-compact-lights", "--no-antialias",
+         "--out", exr_centres])
+    assert same_bits(centres, read_exr(exr_centres))
+    assert not same_bits(centres, basis_only)
     # Each setting reaches the image: undoing any one of them changes it.
     for undo in (
         lambda v: setattr(v, "compact_lights", False),
+        lambda v: setattr(v, "antialias", False),
         lambda v: setattr(v, "environment_rotation", 0.0),
         lambda v: setattr(v, "environment_intensity", 1.0),
         lambda v: setattr(v, "camera", v.camera.orbited(10.0)),

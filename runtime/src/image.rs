@@ -43,6 +43,9 @@ pub struct RenderStats {
     pub view_s: Option<f64>,
     /// Per-vertex: the rasterization part of `view_s`.
     pub raster_s: Option<f64>,
+    /// Per-vertex: how many pixels were antialiased (sampled 16 times: silhouettes and
+    /// creases, `VertexRelighter::set_antialias`); `None` when antialiasing is off.
+    pub antialiased_pixels: Option<u32>,
     /// Per-pixel: bytes of bake data the frame read.
     pub bytes_read: Option<u64>,
 }

@@ -233,6 +233,19 @@ impl Renderer {
         Ok(stats)
     }
 
+    /// Antialiases silhouettes on the CPU (`on`, the runtime's default;
+    /// `VertexRelighter::set_antialias`); the GPU backend does not antialias, and a per-pixel
+    /// bake has nothing to antialias: both ignore it.
+    // Without the feature `gpu` the engine is always the CPU's.
+    #[allow(irrefutable_let_patterns)]
+    pub fn set_antialias(&mut self, on: bool) {
+        if let Engine::Cpu(r) = &mut self.engine {
+            if let Relighter::Vertex(v) = r.as_mut() {
+                v.set_antialias(on);
+            }
+        }
+    }
+
     /// The image size now.
     pub fn size(&self) -> (u32, u32) {
         self.engine.relighter().size()

@@ -98,6 +98,11 @@ struct Args {
     /// "Compact lights").
     #[arg(long)]
     no_compact_lights: bool,
+    /// Per-vertex bakes: shade every pixel at its centre alone, silhouettes and creases
+    /// included, instead of sampling those pixels 16 times (docs/vertex.md, "Silhouettes are
+    /// antialiased"): slightly faster, jagged outlines.
+    #[arg(long)]
+    no_antialias: bool,
     /// Render on a GPU (wgpu: Vulkan, Metal or DX12; docs/gpu.md) instead of the CPU.
     /// Needs a build with `--features gpu`.
     #[arg(long)]
@@ -240,6 +245,7 @@ fn refuse_vertex_flags(args: &Args) -> Result<()> {
         ("--orbit", args.orbit.is_some()),
         ("--turn", args.turn.is_some()),
         ("--no-compact-lights", args.no_compact_lights),
+        ("--no-antialias", args.no_antialias),
     ]
     .into_iter()
     .filter_map(|(flag, given)| given.then_some(flag))
@@ -432,6 +438,7 @@ fn set_up_vertex(args: &Args, r: &mut VertexRelighter) -> Result<prt_formats::vi
             .context("--env-intensity")?;
     }
     r.set_compact_lights(!args.no_compact_lights);
+    r.set_antialias(!args.no_antialias);
     let (default_width, default_height) = r.size();
     let (width, height) = (
         args.width.unwrap_or(default_width),
@@ -522,6 +529,7 @@ fn run_vertex(args: Args, mut r: VertexRelighter, clamped: bool) -> Result<()> {
                 "view_s_median": view_median,
                 "view_s_min": views[0],
                 "raster_s_median": rasters[rasters.len() / 2],
+                "antialiased_pixels": first.antialiased_pixels,
                 "orbit_deg": args.orbit,
                 "turn_deg": args.turn,
                 "light_and_material_s_median": lights.get(lights.len() / 2),

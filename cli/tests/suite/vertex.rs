@@ -202,6 +202,12 @@ fn a_vertex_bake_relights_any_view_light_and_material_and_refuses_bad_input() {
     );
     fails(
         RELIGHT,
+        &[s(&pixel_file), "--no-antialias", "--out", p],
+        &["--no-antialias", "per-pixel bake"],
+        &png,
+    );
+    fails(
+        RELIGHT,
         &[b, "--repeat", "2", "--turn", "nan", "--out", p],
         &["--turn", "finite"],
         &png,

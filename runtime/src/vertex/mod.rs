@@ -27,6 +27,7 @@
 //! arriving on that side, so a pixel looking at the other side (or at a silhouette where the
 //! interpolated normal turns away from the eye) is black.
 
+mod antialias;
 mod clustered;
 pub(crate) mod compact_lights;
 mod constants;
@@ -135,6 +136,9 @@ pub struct VertexRelighter {
     /// Whether the map's compact lights are shaded per pixel with the true lobe
     /// (`compact_lights.rs`; on unless [`VertexRelighter::set_compact_lights`] turns it off).
     compact_lights: bool,
+    /// Whether silhouettes and creases are sampled 16 times per pixel (`antialias.rs`; on
+    /// unless [`VertexRelighter::set_antialias`] turns it off).
+    antialias: bool,
 }
 
 impl VertexRelighter {
@@ -231,6 +235,7 @@ impl VertexRelighter {
             host_vertex_stages: true,
             direct_light_only: false,
             true_lobe: None,
+            antialias: true,
             compact_lights: true,
         })
     }
@@ -450,12 +455,28 @@ impl VertexRelighter {
                 }),
         };
         shade::view_stage(&inputs, &rays, &self.visibility, self.simd, out);
+        let mut antialiased_pixels = None;
+        if self.antialias {
+            let mut edges = Vec::new();
+            antialias::edge_pixels(&self.visibility, &self.scene.triangles, out, &mut edges);
+            let mut parts = Vec::new();
+            self.rasterizer.samples(
+                &self.scene.triangles,
+                &camera,
+                &self.visibility,
+                &edges,
+                &mut parts,
+            )?;
+            antialias::resolve(&inputs, &rays, &parts, out);
+            antialiased_pixels = Some(edges.len() as u32);
+        }
         Ok(RenderStats {
             seconds: start.elapsed().as_secs_f64(),
             light_s,
             material_s,
             view_s: Some(view_start.elapsed().as_secs_f64()),
             raster_s: Some(raster_s),
+            antialiased_pixels,
             bytes_read: None,
         })
     }
@@ -584,6 +605,20 @@ impl VertexRelighter {
     /// ([`VertexRelighter::set_compact_lights`]).
     pub fn compact_lights(&self) -> bool {
         self.compact_lights
+    }
+
+    /// Samples the pixels on silhouettes and creases 16 times (`on`, the default) instead of
+    /// shading each pixel at its centre alone (docs/vertex.md, "Silhouettes are
+    /// antialiased"): the pixels where a neighbour sees another surface and looks different
+    /// become the average of what the pixel holds, as a path tracer's jittered rays see it.
+    /// A GPU backend's frames are not antialiased (docs/gpu.md).
+    pub fn set_antialias(&mut self, on: bool) {
+        self.antialias = on;
+    }
+
+    /// Whether silhouettes and creases are antialiased ([`VertexRelighter::set_antialias`]).
+    pub fn antialias(&self) -> bool {
+        self.antialias
     }
 
     /// How many times the environment's prefilter has run (once per map: a turn or an

@@ -341,7 +341,10 @@ impl Film {
     }
 }
 
-/// A triangle binned for rasterizing: its index and inclusive pixel rectangle.
+/// A triangle binned for rasterizing: its index, the inclusive rectangle of pixel centres it
+/// may cover (empty, `x0 > x1`, when it covers none) and the inclusive rectangle of pixels
+/// whose area its projection may overlap (what the multi-sample pass, `samples.rs`, reads;
+/// it is binned by the latter's rows).
 #[derive(Clone, Copy, Default)]
 struct Entry {
     triangle: u32,
@@ -349,12 +352,29 @@ struct Entry {
     x1: u16,
     y0: u16,
     y1: u16,
+    area: Area,
+}
+
+/// An inclusive rectangle of pixels.
+#[derive(Clone, Copy, Default)]
+struct Area {
+    x0: u16,
+    x1: u16,
+    y0: u16,
+    y1: u16,
+}
+
+impl Entry {
+    /// Whether the triangle may cover a pixel centre.
+    fn covers_centres(&self) -> bool {
+        self.x0 <= self.x1
+    }
 }
 
 /// A triangle's edge functions, computed where it is rasterized (per band, from the
 /// camera-space vertices: cheaper than storing and fetching them for the whole frame).
 #[derive(Clone, Copy)]
-struct Edges {
+pub(crate) struct Edges {
     /// Edge-plane normals, oriented so the inside is where all three `n . (sx, sy, 1)` are
     /// positive. Their sum dotted with `(sx, sy, 1)` is `|det| / z`.
     n: [[f64; 3]; 3],
@@ -410,7 +430,7 @@ impl ChunkBins {
         self.starts.clear();
         self.starts.resize(bands + 1, 0);
         for e in &self.unsorted {
-            for b in band_of(e.y0)..=band_of(e.y1) {
+            for b in band_of(e.area.y0)..=band_of(e.area.y1) {
                 self.starts[b + 1] += 1;
             }
         }
@@ -424,7 +444,7 @@ impl ChunkBins {
         self.cursor.clear();
         self.cursor.extend_from_slice(&self.starts[..bands]);
         for e in &self.unsorted {
-            for b in band_of(e.y0)..=band_of(e.y1) {
+            for b in band_of(e.area.y0)..=band_of(e.area.y1) {
                 self.entries[self.cursor[b] as usize] = *e;
                 self.cursor[b] += 1;
             }
@@ -433,7 +453,7 @@ impl ChunkBins {
 }
 
 /// A triangle's bin entry, or `None` when it cannot be seen: culled against one side of the
-/// view, non-finite, or with no pixel centre in its rectangle.
+/// view, non-finite, or overlapping no pixel.
 fn entry(film: &Film, v: [Vertex; 3], triangle: usize) -> Option<Entry> {
     let (all, any) = (
         v[0].out & v[1].out & v[2].out,
@@ -442,13 +462,15 @@ fn entry(film: &Film, v: [Vertex; 3], triangle: usize) -> Option<Entry> {
     if all != 0 || any & OUT_NONFINITE != 0 {
         return None;
     }
-    let ((x0, y0), (x1, y1)) = rectangle(film, &v)?;
+    let (area, centres) = rectangle(film, &v)?;
+    let ((x0, y0), (x1, y1)) = centres.unwrap_or(((1, 0), (0, 0)));
     Some(Entry {
         triangle: triangle as u32,
         x0,
         x1,
         y0,
         y1,
+        area,
     })
 }
 
@@ -477,9 +499,11 @@ fn edges(c: [[f64; 3]; 3], triangle: u32) -> Option<Edges> {
     })
 }
 
-/// The inclusive range of pixel centres (x, y) the triangle's part in front of the near plane
-/// projects onto, clamped to the image, or `None` when it is empty.
-fn rectangle(film: &Film, v: &[Vertex; 3]) -> Option<((u16, u16), (u16, u16))> {
+/// The inclusive range of pixels (x, y) whose area the triangle's part in front of the near
+/// plane projects onto, clamped to the image (`None` when it is empty), and of the pixel
+/// centres in it (`None` when there is none).
+#[allow(clippy::type_complexity)]
+fn rectangle(film: &Film, v: &[Vertex; 3]) -> Option<(Area, Option<((u16, u16), (u16, u16))>)> {
     let mut min = (f64::INFINITY, f64::INFINITY);
     let mut max = (f64::NEG_INFINITY, f64::NEG_INFINITY);
     let mut add = |(px, py): (f64, f64)| {
@@ -510,9 +534,24 @@ fn rectangle(film: &Film, v: &[Vertex; 3]) -> Option<((u16, u16), (u16, u16))> {
         // `as u16` of the clamped values is exact (size <= MAX_IMAGE_SIDE).
         (first <= last).then_some((first as u16, last as u16))
     };
-    let (x0, x1) = range(min.0, max.0, film.width)?;
-    let (y0, y1) = range(min.1, max.1, film.height)?;
-    Some(((x0, y0), (x1, y1)))
+    // Pixel i spans [i, i + 1).
+    let area = |lo: f64, hi: f64, size: f64| -> Option<(u16, u16)> {
+        let first = floor_within(lo - RECT_PAD, size).max(0.0);
+        let last = floor_within(hi + RECT_PAD, size).min(size - 1.0);
+        (first <= last).then_some((first as u16, last as u16))
+    };
+    let (ax0, ax1) = area(min.0, max.0, film.width)?;
+    let (ay0, ay1) = area(min.1, max.1, film.height)?;
+    let area = Area {
+        x0: ax0,
+        x1: ax1,
+        y0: ay0,
+        y1: ay1,
+    };
+    let centres = range(min.0, max.0, film.width)
+        .zip(range(min.1, max.1, film.height))
+        .map(|((x0, x1), (y0, y1))| ((x0, y0), (x1, y1)));
+    Some((area, centres))
 }
 
 /// `x.floor()` where only values in [-size, size] matter: others are clamped to just beyond
@@ -645,7 +684,7 @@ fn raster_band(
     let (depth, seq) = (&mut z.depth[..], &mut z.seq[..]);
     for chunk in chunks {
         let run = chunk.starts[band] as usize..chunk.starts[band + 1] as usize;
-        for e in &chunk.entries[run] {
+        for e in chunk.entries[run].iter().filter(|e| e.covers_centres()) {
             let tri = t.triangles[e.triangle as usize];
             let Some(s) = edges(tri.map(|v| t.verts[v as usize].c), e.triangle) else {
                 continue;
@@ -733,5 +772,6 @@ fn raster_band(
     }
 }
 
+pub(crate) mod samples;
 #[cfg(test)]
 mod tests;

@@ -355,7 +355,7 @@ fn normalize(v: [f32; 3]) -> [f32; 3] {
 impl ViewInputs<'_> {
     /// The radiance towards the eye from the point of triangle `t` at barycentrics `bary`.
     #[inline(always)]
-    fn shade(&self, t: usize, bary: [f32; 2]) -> [f32; 3] {
+    pub(super) fn shade(&self, t: usize, bary: [f32; 2]) -> [f32; 3] {
         let s = self.scene;
         let tri = s.triangles[t];
         let m = s.triangle_material[t] as usize;

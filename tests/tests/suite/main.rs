@@ -12,6 +12,7 @@ mod reproducible;
 mod runtime_compressed;
 mod runtime_kernels;
 mod runtime_threads;
+mod vertex_antialias;
 mod vertex_compressed;
 mod vertex_convergence;
 mod vertex_exactness;

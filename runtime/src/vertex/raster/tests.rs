@@ -13,6 +13,7 @@ use crate::vertex::view::eye_verdict;
 
 mod eye;
 mod parts;
+mod samples;
 mod timing;
 
 /// A small deterministic generator (an LCG) for the test geometry.
