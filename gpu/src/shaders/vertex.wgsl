@@ -651,19 +651,9 @@ fn shade(t: u32, bary: vec2<f32>) -> vec3<f32> {
         bitangent = cross(ns, tangent);
         wo_l = vec3<f32>(dot(tangent, wo), dot(bitangent, wo), dot(ns, wo));
         if !(wo_l.z > 0.0) {
-            // Near a silhouette the interpolated normal can turn away from the eye while the
-            // triangle faces it: shade as seen from just above the horizon. A triangle whose
-            // data side faces away is seen from the side without data: black.
-            if !data_side_faces_eye(v0, v1, v2, n, wo) {
-                return vec3<f32>(0.0);
-            }
-            let h = sqrt(wo_l.x * wo_l.x + wo_l.y * wo_l.y);
-            if !(h > 0.0) {
-                return vec3<f32>(0.0);
-            }
-            let z = 1e-3;
-            let k = sqrt(1.0 - z * z) / h;
-            wo_l = vec3<f32>(wo_l.x * k, wo_l.y * k, z);
+            // Seen from below the shading normal's horizon (the back of a surface, or a
+            // silhouette where the interpolated normal turns away): black, as on the CPU.
+            return vec3<f32>(0.0);
         }
     }
     let r0 = index[frame.vertex_info_at + 2u * v0];

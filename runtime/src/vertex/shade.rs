@@ -422,23 +422,16 @@ impl ViewInputs<'_> {
         let mut frame = None;
         if glossy || n_dot_wo.is_nan() || n_dot_wo <= 0.0 {
             let (tangent, bitangent) = vertex_frame(ns);
-            let mut wo_l = to_local(tangent, bitangent, ns, wo);
+            let wo_l = to_local(tangent, bitangent, ns, wo);
             // NaN (a degenerate normal) also takes this branch.
             if wo_l[2].is_nan() || wo_l[2] <= 0.0 {
-                // Near a silhouette the interpolated normal can turn away from the eye while the
-                // triangle itself faces it (the side its vertex normals are on): shade as seen
-                // from just above the horizon rather than leave a black pixel. A triangle whose
-                // data side faces away from the eye is seen from the side without data: black.
-                if !data_side_faces_eye() {
-                    return [0.0; 3];
-                }
-                let h = (wo_l[0] * wo_l[0] + wo_l[1] * wo_l[1]).sqrt();
-                if h.is_nan() || h <= 0.0 {
-                    return [0.0; 3];
-                }
-                let z = 1e-3f32;
-                let k = (1.0 - z * z).sqrt() / h;
-                wo_l = [wo_l[0] * k, wo_l[1] * k, z];
+                // Seen from below the shading normal's horizon: the back of a surface, or a
+                // silhouette where the interpolated normal turns away from the eye while the
+                // triangle faces it. Black, as the reference tracer (and Mitsuba) make it:
+                // shading such a pixel as seen from just above the horizon drew the glossy
+                // knot's rim twice as bright as the reference's (docs/vertex.md, "Accuracy as
+                // measured").
+                return [0.0; 3];
             }
             frame = Some((tangent, bitangent, wo_l));
         }
