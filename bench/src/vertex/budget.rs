@@ -31,9 +31,12 @@
 //!     visibility, per-vertex interpolation, pixel centres) by that image against the truth;
 //!   - **reflected light**: the relit image less its direct part against the truth less its
 //!     one-reflection part (I1 and I2 against the light after two or more reflections);
-//!   - **pixel centres**: the relit image (one ray through each pixel's centre meets the
-//!     geometry) against the same relighter rendered 2 x 2 per pixel and averaged, as the
-//!     reference's jittered rays average silhouettes and textures.
+//!   - **antialiasing**: the relit image (its silhouettes and creases sampled 16 times per
+//!     pixel, `VertexRelighter::set_antialias`) against the same with every pixel shaded at
+//!     its centre alone: what the antialiasing changes;
+//!   - **pixel centres left**: the relit image against the same relighter rendered 2 x 2 per
+//!     pixel and averaged, as the reference's jittered rays average silhouettes and textures:
+//!     what the antialiasing leaves.
 //!
 //! A part's figure is the relative L2 (and mean ratio) of the image it changes, per region;
 //! a mean ratio away from 1 by more than the noise is a bias.
@@ -298,6 +301,9 @@ pub fn run(args: &BudgetArgs) -> Result<String> {
             per_light.push(render(&mut r, args.size)?.0);
             if i + 1 == baked.len() {
                 let supersampled = box_down(&render(&mut r, 2 * args.size)?.0, 2 * args.size);
+                r.set_antialias(false);
+                let centres = render(&mut r, args.size)?.0;
+                r.set_antialias(true);
                 r.set_direct_light_only(true);
                 let direct = render(&mut r, args.size)?.0;
                 r.set_true_lobe(Some((Arc::new(BakerLobe), TRUE_LOBE_SIDE)));
@@ -309,6 +315,7 @@ pub fn run(args: &BudgetArgs) -> Result<String> {
                     direct_true_lobe,
                     direct_true_lobe_quarter,
                     supersampled,
+                    centres,
                 });
             }
         }
@@ -344,6 +351,8 @@ struct Split {
     direct_true_lobe_quarter: Pixels,
     /// 2 x 2 per pixel, averaged.
     supersampled: Pixels,
+    /// Antialiasing off: every pixel shaded at its centre alone.
+    centres: Pixels,
 }
 
 /// Draws per side of the true lobe's stratified grids per pixel (`set_true_lobe`): 4096 of
@@ -482,9 +491,12 @@ fn section(args: &BudgetArgs, regions: &Regions, settings: &[Setting], m: &Measu
          4096 stratified draws of the lobe and as many of the map per pixel, combined by the \
          balance heuristic, against the same incident light; its own noise measured beside it) and what is \
          left of it (that image against the truth: visibility, interpolation, pixel centres); \
-         the reflected light (each image less its direct part); the pixel centres (the relit image against the same relighter \
-         rendered 2 x 2 per pixel and averaged, as the reference's jittered rays average \
-         silhouettes). Method: `bench/src/vertex/budget.rs`.\n",
+         the reflected light (each image less its direct part); antialiasing (the relit \
+         image, whose silhouettes and creases are sampled 16 times per pixel, against the same \
+         with every pixel shaded at its centre alone: what the antialiasing changes); the pixel \
+         centres left (the relit image against the same relighter rendered 2 x 2 per pixel and \
+         averaged, as the reference's jittered rays average silhouettes and textures: what \
+         the antialiasing leaves). Method: `bench/src/vertex/budget.rs`.\n",
         args.config.display(),
         args.size,
         args.references.max(2),
@@ -644,7 +656,13 @@ fn section(args: &BudgetArgs, regions: &Regions, settings: &[Setting], m: &Measu
         );
         row(
             &mut s,
-            "&nbsp; pixel centres (vs the same 2 x 2 per pixel, averaged)",
+            "&nbsp; antialiasing (the same with every pixel shaded at its centre alone)",
+            &contribution(regions, &images[t0][li], &split.centres, &truth.mean),
+            true,
+        );
+        row(
+            &mut s,
+            "&nbsp; pixel centres left (vs the same 2 x 2 per pixel, averaged)",
             &contribution(regions, &images[t0][li], &split.supersampled, &truth.mean),
             true,
         );

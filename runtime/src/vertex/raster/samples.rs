@@ -49,13 +49,6 @@ pub(crate) struct Part {
     pub(crate) samples: u16,
 }
 
-impl Part {
-    /// The part's share of its pixel.
-    pub(crate) fn weight(&self) -> f32 {
-        self.samples.count_ones() as f32 / SAMPLES as f32
-    }
-}
-
 impl Rasterizer {
     /// What the [`SAMPLES`] sample positions of each pixel in `pixels` (row-major indices,
     /// ascending) see, as [`Part`]s into `out` (replaced; pixel by pixel in the order given,
@@ -88,6 +81,15 @@ impl Rasterizer {
                 if mine.is_empty() {
                     return Vec::new();
                 }
+                #[cfg(target_arch = "x86_64")]
+                if std::arch::is_x86_feature_detected!("avx2") {
+                    // SAFETY: the CPU supports AVX2 (checked just above).
+                    return unsafe {
+                        band_samples_avx2(
+                            &rays, &film, vis, triangles, verts, chunks, band, mine, &offsets,
+                        )
+                    };
+                }
                 band_samples(
                     &rays, &film, vis, triangles, verts, chunks, band, mine, &offsets,
                 )
@@ -100,8 +102,30 @@ impl Rasterizer {
     }
 }
 
+/// [`band_samples`] compiled for AVX2 (as the pixel-centre pass): the same operations in the
+/// same order, so the same parts bit for bit.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[allow(clippy::too_many_arguments)]
+unsafe fn band_samples_avx2(
+    rays: &ViewRays,
+    film: &Film,
+    vis: &VisibilityBuffer,
+    triangles: &[[u32; 3]],
+    verts: &[super::Vertex],
+    chunks: &[super::ChunkBins],
+    band: usize,
+    mine: &[u32],
+    offsets: &[(f64, f64); SAMPLES],
+) -> Vec<Part> {
+    band_samples(
+        rays, film, vis, triangles, verts, chunks, band, mine, offsets,
+    )
+}
+
 /// [`Rasterizer::samples`] for one band's pixels `mine`.
 #[allow(clippy::too_many_arguments)]
+#[inline(always)]
 fn band_samples(
     rays: &ViewRays,
     film: &Film,
@@ -118,17 +142,33 @@ fn band_samples(
     let q_near = 1.0 / film.near;
     let y_first = band * BAND_ROWS as usize;
     let rows = (BAND_ROWS as usize).min(vis.height as usize - y_first);
-    // Each row's slice of `mine` (ascending pixel indices, so rows are contiguous).
-    let row_start: Vec<usize> = (0..=rows)
-        .map(|r| mine.partition_point(|&p| (p as usize) < (y_first + r) * width))
-        .collect();
+    // Per pixel of the band: its position in `mine`, or NONE.
+    let mut slot = vec![NONE; rows * width];
+    for (i, &p) in mine.iter().enumerate() {
+        slot[p as usize - y_first * width] = i as u32;
+    }
     // Per pixel and sample: the film position, then the nearest inverse depth so far and the
     // position of its triangle's edge functions in `seen`.
-    let film_at: Vec<[(f64, f64); SAMPLES]> = mine
+    // (Coordinates apart, so that the sample loop reads each as one vector.)
+    let film_at: Vec<[[f64; SAMPLES]; 2]> = mine
         .iter()
         .map(|&p| {
             let (x, y) = ((p as usize % width) as f64, (p as usize / width) as f64);
-            offsets.map(|(ox, oy)| rays.film(x + ox, y + oy))
+            let at = offsets.map(|(ox, oy)| rays.film(x + ox, y + oy));
+            [at.map(|a| a.0), at.map(|a| a.1)]
+        })
+        .collect();
+    // Half a pixel in film units along x and y, and each chosen pixel's centre: a triangle
+    // one of whose edges is negative over the whole pixel square (its value at the centre plus
+    // the most the square can add) covers none of its samples.
+    let (cx0, cy0) = rays.film(0.5, 0.5);
+    let (cx1, cy1) = rays.film(1.5, 1.5);
+    let (half_x, half_y) = (0.5 * (cx1 - cx0).abs(), 0.5 * (cy1 - cy0).abs());
+    let centre: Vec<(f64, f64)> = mine
+        .iter()
+        .map(|&p| {
+            let (x, y) = ((p as usize % width) as f64, (p as usize / width) as f64);
+            rays.film(x + 0.5, y + 0.5)
         })
         .collect();
     let mut depth = vec![0.0f64; mine.len() * SAMPLES];
@@ -140,40 +180,42 @@ fn band_samples(
             let a = e.area;
             let y0 = usize::from(a.y0).max(y_first);
             let y1 = usize::from(a.y1).min(y_first + rows - 1);
+            let (x0, x1) = (usize::from(a.x0), usize::from(a.x1));
             let mut s = None;
             for y in y0..=y1 {
-                let r = y - y_first;
-                let row = &mine[row_start[r]..row_start[r + 1]];
-                let base = y * width;
-                let from = row.partition_point(|&p| (p as usize) < base + usize::from(a.x0));
-                let to = row.partition_point(|&p| (p as usize) <= base + usize::from(a.x1));
-                if from == to {
-                    continue;
-                }
-                // The edge functions, once per triangle that reaches a chosen pixel.
-                let (sid, t) = match s {
-                    Some(found) => found,
-                    None => {
-                        let tri = triangles[e.triangle as usize];
-                        let Some(t) = edges(tri.map(|v| verts[v as usize].c), e.triangle) else {
-                            break;
-                        };
-                        let sid = seen.len() as u32;
-                        seen.push(t);
-                        s = Some((sid, t));
-                        (sid, t)
+                let row = &slot[(y - y_first) * width..][..width];
+                for &i in row[x0..=x1].iter().filter(|&&i| i != NONE) {
+                    // The edge functions, once per triangle that reaches a chosen pixel.
+                    let (sid, t) = match s {
+                        Some(found) => found,
+                        None => {
+                            let tri = triangles[e.triangle as usize];
+                            let Some(t) = edges(tri.map(|v| verts[v as usize].c), e.triangle)
+                            else {
+                                break;
+                            };
+                            let sid = seen.len() as u32;
+                            seen.push(t);
+                            s = Some((sid, t));
+                            (sid, t)
+                        }
+                    };
+                    let [n0, n1, n2] = t.n;
+                    let (o0, o1, o2) = (t.owns & 1 != 0, t.owns & 2 != 0, t.owns & 4 != 0);
+                    let i = i as usize;
+                    let (px, py) = centre[i];
+                    let apart = |e: [f64; 3]| {
+                        e[0] * px + (e[1] * py + e[2]) + e[0].abs() * half_x + e[1].abs() * half_y
+                            < 0.0
+                    };
+                    if apart(n0) || apart(n1) || apart(n2) {
+                        continue;
                     }
-                };
-                let [n0, n1, n2] = t.n;
-                let (o0, o1, o2) = (t.owns & 1 != 0, t.owns & 2 != 0, t.owns & 4 != 0);
-                let first = row_start[r] + from;
-                for (i, at_pixel) in film_at
-                    .iter()
-                    .enumerate()
-                    .take(row_start[r] + to)
-                    .skip(first)
-                {
-                    for (k, &(sx, sy)) in at_pixel.iter().enumerate() {
+                    let [fx, fy] = &film_at[i];
+                    let depth = &mut depth[i * SAMPLES..][..SAMPLES];
+                    let seq = &mut seq[i * SAMPLES..][..SAMPLES];
+                    for k in 0..SAMPLES {
+                        let (sx, sy) = (fx[k], fy[k]);
                         let w0 = n0[0] * sx + (n0[1] * sy + n0[2]);
                         let w1 = n1[0] * sx + (n1[1] * sy + n1[2]);
                         let w2 = n2[0] * sx + (n2[1] * sy + n2[2]);
@@ -181,11 +223,10 @@ fn band_samples(
                         let covered = (m > 0.0)
                             | (m == 0.0 && inside(w0, o0) & inside(w1, o1) & inside(w2, o2));
                         let q = (w0 + w1 + w2) * t.inv_det;
-                        let at = i * SAMPLES + k;
-                        if covered & (q > depth[at]) & (q <= q_near) {
-                            depth[at] = q;
-                            seq[at] = sid;
-                        }
+                        // Branch-free: whether a sample is covered is unpredictable.
+                        let wins = covered & (q > depth[k]) & (q <= q_near);
+                        depth[k] = if wins { q } else { depth[k] };
+                        seq[k] = if wins { sid } else { seq[k] };
                     }
                 }
             }
@@ -214,8 +255,8 @@ fn band_samples(
             // (its edge values over their sum, as at a pixel centre).
             let (mut cx, mut cy) = (0.0, 0.0);
             for k in (0..SAMPLES).filter(|k| samples & (1 << k) != 0) {
-                cx += film_at[i][k].0;
-                cy += film_at[i][k].1;
+                cx += film_at[i][0][k];
+                cy += film_at[i][1][k];
             }
             let n = f64::from(samples.count_ones());
             let (cx, cy) = (cx / n, cy / n);
