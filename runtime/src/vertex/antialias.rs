@@ -21,7 +21,7 @@
 use rayon::prelude::*;
 
 use super::raster::samples::{offsets, Part, SAMPLES};
-use super::raster::VisibilityBuffer;
+use super::raster::{Fragment, VisibilityBuffer};
 use super::shade::ViewInputs;
 use super::view::{ViewRays, NO_TRIANGLE};
 
@@ -96,13 +96,16 @@ struct Job {
     bary: [f32; 2],
     samples: u16,
     weight: f32,
+    /// The surface holds the triangle the pixel's centre sees: the pixel's shade is its
+    /// (shaded at the centre, inside the pixel as the centroid is), and is not shaded again.
+    at_centre: bool,
 }
 
 /// The pixel's parts as shading jobs: parts whose triangles share a vertex (one smooth
 /// surface: a pixel of a finely tessellated mesh holds several of its triangles) are shaded
 /// once, at the centroid of the samples of the one with the most, with their summed share;
 /// the background's part is its own job.
-fn jobs(parts: &[Part], triangles: &[[u32; 3]], out: &mut Vec<Job>) {
+fn jobs(parts: &[Part], triangles: &[[u32; 3]], centre: &[Fragment], out: &mut Vec<Job>) {
     let mut start = 0;
     while start < parts.len() {
         let pixel = parts[start].pixel;
@@ -140,9 +143,11 @@ fn jobs(parts: &[Part], triangles: &[[u32; 3]], out: &mut Vec<Job>) {
         }
         for r in (0..mine.len()).filter(|&i| root[i] == i) {
             // The member with the most samples (the first of equals) is shaded.
-            let (mut count, mut best) = (0u32, r);
+            let seen = centre[pixel as usize].triangle;
+            let (mut count, mut best, mut at_centre) = (0u32, r, false);
             for (i, p) in mine.iter().enumerate().filter(|&(i, _)| root[i] == r) {
                 count += p.samples.count_ones();
+                at_centre |= p.triangle == seen && seen != NO_TRIANGLE;
                 if p.samples.count_ones() > mine[best].samples.count_ones() {
                     best = i;
                 }
@@ -153,18 +158,26 @@ fn jobs(parts: &[Part], triangles: &[[u32; 3]], out: &mut Vec<Job>) {
                 bary: mine[best].bary,
                 samples: mine[best].samples,
                 weight: count as f32 / SAMPLES as f32,
+                at_centre,
             });
         }
         start = end;
     }
 }
 
-/// Replaces each sampled pixel of `out` (RGB rows) by the sum of its surfaces' shades, each
-/// weighted by its share of the pixel.
-pub(super) fn resolve(inputs: &ViewInputs, rays: &ViewRays, parts: &[Part], out: &mut [f32]) {
+/// Replaces each sampled pixel of `out` (RGB rows, shaded at the pixels' centres as `vis`
+/// shows them) by the sum of its surfaces' shades, each weighted by its share of the pixel.
+pub(super) fn resolve(
+    inputs: &ViewInputs,
+    rays: &ViewRays,
+    vis: &VisibilityBuffer,
+    parts: &[Part],
+    out: &mut [f32],
+) {
     let mut work = Vec::with_capacity(parts.len());
-    jobs(parts, &inputs.scene.triangles, &mut work);
+    jobs(parts, &inputs.scene.triangles, &vis.fragments, &mut work);
     let mut shades = vec![[0.0f32; 3]; work.len()];
+    let image: &[f32] = out;
     shades
         .par_chunks_mut(64)
         .zip(work.par_chunks(64))
@@ -172,10 +185,10 @@ pub(super) fn resolve(inputs: &ViewInputs, rays: &ViewRays, parts: &[Part], out:
             #[cfg(target_arch = "x86_64")]
             if std::arch::is_x86_feature_detected!("avx2") {
                 // SAFETY: the CPU supports AVX2 (checked just above).
-                unsafe { shade_jobs_avx2(inputs, rays, work, shades) };
+                unsafe { shade_jobs_avx2(inputs, rays, image, work, shades) };
                 return;
             }
-            shade_jobs(inputs, rays, work, shades);
+            shade_jobs(inputs, rays, image, work, shades);
         });
     let mut last = None;
     for (job, rgb) in work.iter().zip(shades) {
@@ -196,19 +209,29 @@ pub(super) fn resolve(inputs: &ViewInputs, rays: &ViewRays, parts: &[Part], out:
 unsafe fn shade_jobs_avx2(
     inputs: &ViewInputs,
     rays: &ViewRays,
+    image: &[f32],
     work: &[Job],
     out: &mut [[f32; 3]],
 ) {
-    shade_jobs(inputs, rays, work, out);
+    shade_jobs(inputs, rays, image, work, out);
 }
 
-/// Each job's shade times its weight.
+/// Each job's shade times its weight (`image`: the pixels shaded at their centres).
 #[inline(always)]
-fn shade_jobs(inputs: &ViewInputs, rays: &ViewRays, work: &[Job], out: &mut [[f32; 3]]) {
+fn shade_jobs(
+    inputs: &ViewInputs,
+    rays: &ViewRays,
+    image: &[f32],
+    work: &[Job],
+    out: &mut [[f32; 3]],
+) {
     let width = rays.width as usize;
     let offsets = offsets();
     for (job, o) in work.iter().zip(out) {
-        let rgb = if job.triangle == NO_TRIANGLE {
+        let rgb = if job.at_centre {
+            let at = 3 * job.pixel as usize;
+            [image[at], image[at + 1], image[at + 2]]
+        } else if job.triangle == NO_TRIANGLE {
             let x = (job.pixel as usize % width) as f64;
             let y = (job.pixel as usize / width) as f64;
             let mut sum = [0.0f32; 3];

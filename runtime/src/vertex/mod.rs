@@ -453,6 +453,7 @@ impl VertexRelighter {
                     side: *side,
                     env: env_sampler.as_ref(),
                 }),
+            light_taps: shade::light_taps(light),
         };
         shade::view_stage(&inputs, &rays, &self.visibility, self.simd, out);
         let mut antialiased_pixels = None;
@@ -467,7 +468,7 @@ impl VertexRelighter {
                 &edges,
                 &mut parts,
             )?;
-            antialias::resolve(&inputs, &rays, &parts, out);
+            antialias::resolve(&inputs, &rays, &self.visibility, &parts, out);
             antialiased_pixels = Some(edges.len() as u32);
         }
         Ok(RenderStats {

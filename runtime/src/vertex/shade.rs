@@ -287,6 +287,23 @@ pub(super) struct ViewInputs<'a> {
     pub background_samples: u32,
     /// The budget's switch to the true lobe at the last reflection (`true_lobe.rs`).
     pub true_lobe: Option<TrueLobeSwitch<'a>>,
+    /// Per compact light of `light`, the visibility cubes' bilinear taps in its direction
+    /// ([`light_taps`]: the same for every pixel, so found once per frame).
+    pub light_taps: Vec<[(usize, f64); 4]>,
+}
+
+/// The visibility cubes' bilinear taps in each compact light's direction.
+pub(super) fn light_taps(light: &LightCoefficients) -> Vec<[(usize, f64); 4]> {
+    light
+        .compact_lights
+        .iter()
+        .map(|l| {
+            let d = l.direction;
+            let (face, fs, ft) =
+                direction_to_face_st([f64::from(d[0]), f64::from(d[1]), f64::from(d[2])]);
+            bilinear_taps(VISIBILITY_CUBE, face, fs, ft)
+        })
+        .collect()
 }
 
 /// Shades every pixel of `vis` into `out` (RGB rows, top row first), rows in parallel; `simd`
@@ -487,8 +504,7 @@ impl ViewInputs<'_> {
         // vertices.
         let rows = &self.file_bytes[self.cache.visibility[g].clone()];
         let per_vertex = 6 * VISIBILITY_CUBE * VISIBILITY_CUBE;
-        let visible_at = |face: Face, fs: f64, ft: f64| -> f32 {
-            let vis_taps = bilinear_taps(VISIBILITY_CUBE, face, fs, ft);
+        let visible_with = |vis_taps: &[(usize, f64); 4]| -> f32 {
             (0..3)
                 .map(|k| {
                     let row = &rows[local[k] * per_vertex..][..per_vertex];
@@ -496,6 +512,9 @@ impl ViewInputs<'_> {
                     w[k] * (v / 255.0) as f32
                 })
                 .sum()
+        };
+        let visible_at = |face: Face, fs: f64, ft: f64| -> f32 {
+            visible_with(&bilinear_taps(VISIBILITY_CUBE, face, fs, ft))
         };
         if let Some(switch) = &self.true_lobe {
             // The budget's switch: the true lobe against the same incident light as the basis
@@ -587,7 +606,7 @@ impl ViewInputs<'_> {
         );
         // The compact lights, which the records' `U` and the prefiltered cubes leave out
         // (`compact_lights.rs`): each through the true lobe, shadowed by the same visibility.
-        for light in &self.light.compact_lights {
+        for (light, taps) in self.light.compact_lights.iter().zip(&self.light_taps) {
             let wi_l = to_local(tangent, bitangent, ns, light.direction);
             if wi_l[2].is_nan() || wi_l[2] <= 0.0 {
                 continue;
@@ -596,10 +615,7 @@ impl ViewInputs<'_> {
             if f.is_nan() || f <= 0.0 {
                 continue;
             }
-            let d = light.direction;
-            let (face, fs, ft) =
-                direction_to_face_st([f64::from(d[0]), f64::from(d[1]), f64::from(d[2])]);
-            let reflected = f * visible_at(face, fs, ft);
+            let reflected = f * visible_with(taps);
             for (s, p) in spec.iter_mut().zip(light.power) {
                 *s += reflected * p;
             }
