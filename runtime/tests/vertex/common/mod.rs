@@ -495,6 +495,10 @@ pub fn asymmetric_map(width: usize, height: usize) -> Vec<f32> {
 }
 
 /// Renders the view of `cam` at `w` x `h` into `out`: the camera and size set, then the frame.
+/// Antialiasing is off: these tests hold each pixel, by where its centre's ray meets the
+/// geometry, to a closed form (a pixel an outline crosses would be the average of what it
+/// holds; the antialiasing has its own tests in `runtime/src/vertex/raster/tests/samples.rs`
+/// and `tests/tests/suite/vertex_antialias.rs`).
 pub fn frame(
     r: &mut VertexRelighter,
     cam: &CameraFrame,
@@ -502,6 +506,7 @@ pub fn frame(
     h: u32,
     out: &mut [f32],
 ) -> Result<RenderStats, RuntimeError> {
+    r.set_antialias(false);
     r.set_size(w, h)?;
     r.set_camera(*cam)?;
     r.render_into(out)
