@@ -25,6 +25,19 @@ use measure::{Errors, PathTimes, Pixels};
 use sweep::{Baked, Setting};
 
 /// Arguments of `bench vertex`.
+/// Where the report's sections that other commands write begin; regenerating the report
+/// keeps the existing file's text from here on.
+const KEPT_FROM: &str = "\n## Error budget";
+
+/// The regenerated report `new` followed by the old report's text from [`KEPT_FROM`] on (when
+/// it has that section).
+fn keep_tail(new: String, old: &str) -> String {
+    match old.find(KEPT_FROM) {
+        Some(at) => format!("{}\n{}", new.trim_end(), &old[at..]),
+        None => new,
+    }
+}
+
 #[derive(clap::Args, Debug)]
 pub struct VertexArgs {
     /// The main scene: traced once, compressed with every compression setting.
@@ -222,7 +235,30 @@ pub fn run(args: &VertexArgs) -> Result<()> {
         spp,
         rounds,
     })?;
+    // The sections from "## Error budget" on are written by `bench budget` and `bench scale`
+    // (and the budget's discussion by hand): kept as they are.
+    let text = match std::fs::read_to_string(&out) {
+        Ok(old) => keep_tail(text, &old),
+        Err(_) => text,
+    };
     std::fs::write(&out, text).with_context(|| format!("writing {}", out.display()))?;
     eprintln!("wrote {}", out.display());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::keep_tail;
+
+    /// Regenerating the report keeps the budget's and the scale's sections, and only them.
+    #[test]
+    fn the_sections_other_commands_write_are_kept() {
+        let old = "# R\n\nold goals\n\n## Error budget\n\nprose\n<!-- b -->\n## Scale\n\nx\n";
+        let new = "# R\n\nnew goals\n".to_string();
+        assert_eq!(
+            keep_tail(new.clone(), old),
+            "# R\n\nnew goals\n\n## Error budget\n\nprose\n<!-- b -->\n## Scale\n\nx\n"
+        );
+        assert_eq!(keep_tail(new.clone(), "# R\n\nold goals\n"), new);
+    }
 }
