@@ -21,6 +21,8 @@
 
 use prt_formats::envmap::LatLongMap;
 use prt_formats::latlong::{texel_centre, uv_to_direction};
+use prt_formats::lighting::cubemap::{bilinear_taps, direction_to_face_st};
+use prt_formats::vertex::VISIBILITY_CUBE;
 
 /// A texel is a light's candidate above this many times the map's mean radiance (luminance):
 /// on the three maps of `scenes/envmaps` that is the sun of `sky` (4 cube texels, 54 % of the
@@ -165,6 +167,20 @@ pub fn turned(light: &CompactLight, to_world: &[[f64; 3]; 3]) -> CompactLight {
         }),
         power: light.power,
     }
+}
+
+/// The visibility cubes' bilinear taps in each compact light's direction.
+pub(super) fn light_taps(light: &super::light::LightCoefficients) -> Vec<[(usize, f64); 4]> {
+    light
+        .compact_lights
+        .iter()
+        .map(|l| {
+            let d = l.direction;
+            let (face, fs, ft) =
+                direction_to_face_st([f64::from(d[0]), f64::from(d[1]), f64::from(d[2])]);
+            bilinear_taps(VISIBILITY_CUBE, face, fs, ft)
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -288,22 +288,8 @@ pub(super) struct ViewInputs<'a> {
     /// The budget's switch to the true lobe at the last reflection (`true_lobe.rs`).
     pub true_lobe: Option<TrueLobeSwitch<'a>>,
     /// Per compact light of `light`, the visibility cubes' bilinear taps in its direction
-    /// ([`light_taps`]: the same for every pixel, so found once per frame).
+    /// (`compact_lights::light_taps`: the same for every pixel, so found once per frame).
     pub light_taps: Vec<[(usize, f64); 4]>,
-}
-
-/// The visibility cubes' bilinear taps in each compact light's direction.
-pub(super) fn light_taps(light: &LightCoefficients) -> Vec<[(usize, f64); 4]> {
-    light
-        .compact_lights
-        .iter()
-        .map(|l| {
-            let d = l.direction;
-            let (face, fs, ft) =
-                direction_to_face_st([f64::from(d[0]), f64::from(d[1]), f64::from(d[2])]);
-            bilinear_taps(VISIBILITY_CUBE, face, fs, ft)
-        })
-        .collect()
 }
 
 /// Shades every pixel of `vis` into `out` (RGB rows, top row first), rows in parallel; `simd`
