@@ -170,9 +170,8 @@ pub fn turned(light: &CompactLight, to_world: &[[f64; 3]; 3]) -> CompactLight {
 }
 
 /// The visibility cubes' bilinear taps in each compact light's direction.
-pub(super) fn light_taps(light: &super::light::LightCoefficients) -> Vec<[(usize, f64); 4]> {
-    light
-        .compact_lights
+pub(super) fn light_taps(lights: &[CompactLight]) -> Vec<[(usize, f64); 4]> {
+    lights
         .iter()
         .map(|l| {
             let d = l.direction;

@@ -455,7 +455,7 @@ impl VertexRelighter {
                     side: *side,
                     env: env_sampler.as_ref(),
                 }),
-            light_taps: compact_lights::light_taps(light),
+            light_taps: compact_lights::light_taps(&light.compact_lights),
         };
         shade::view_stage(&inputs, &rays, &self.visibility, self.simd, out);
         let mut antialiased_pixels = None;
